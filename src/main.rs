@@ -1,0 +1,47 @@
+//! `trigait`: the command-line front door to the same operators the dataflow runs.
+//!
+//! `main` parses, `run` works, and every error is printed once with its whole chain (`{:#}`) and
+//! exit code 2, in the manner of ripgrep. Each subcommand lives in its own module and only wires
+//! arguments to an `operators/` crate, so a number printed here and one produced inside the
+//! dataflow come from the same code.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Markerless 3-D gait tracking from several Kinect v2 depth sensors.
+#[derive(Debug, Parser)]
+#[command(name = "trigait", version, about, long_about = None)]
+pub struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+// Each variant's doc comment is its one-line help in `trigait --help`.
+#[derive(Debug, Subcommand)]
+enum Command {}
+
+fn run(args: Args) -> eyre::Result<()> {
+    match args.command {}
+}
+
+fn main() -> ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    /// The clap definition is internally consistent (no clashing flags or ids).
+    #[test]
+    fn cli_definition_is_consistent() {
+        super::Args::command().debug_assert();
+    }
+}
