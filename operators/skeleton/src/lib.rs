@@ -9,7 +9,9 @@
 //! floor at z = 0, walking along +X once the clip is [placed on the walkway](MotionClip::placed_on_walkway).
 
 mod clip;
+mod frame;
 mod joint;
 
 pub use clip::{ClipError, MotionClip};
+pub use frame::{JointSample, SkeletonFrame};
 pub use joint::{Joint, TrackingState};
