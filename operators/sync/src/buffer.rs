@@ -1,0 +1,762 @@
+//! [`SyncBuffer`]: frames in (sensor-local stamps), aligned sets out (server time).
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+use nalgebra::{Point3, Vector3};
+use trigait_skeleton::{Joint, JointSample, SkeletonFrame, TrackingState};
+
+use crate::filter::{ClockFilter, SampleOutcome, ServerTime};
+use crate::params::{Interpolation, Policy, SyncParams};
+use crate::{Error, NtpSample, Result};
+
+/// A frame placed on the server clock.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimedFrame {
+    /// The frame as the sensor sent it (sensor-local stamp, camera-frame joints).
+    pub frame: SkeletonFrame,
+    /// Capture time on the server clock, nanoseconds.
+    pub server_stamp_nanos: i64,
+    /// Uncertainty of `server_stamp_nanos`, nanoseconds.
+    pub time_uncertainty_nanos: i64,
+}
+
+/// One sensor's contribution to an [`AlignedSet`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensorView {
+    /// Joints at the set's instant, in this sensor's camera frame (metres), sorted by joint.
+    /// Only `Tracked`/`Inferred` joints; a resampled joint is `Inferred` if either sample was.
+    pub joints: Vec<JointSample>,
+    /// Estimated resampling error of each joint, metres, same order as `joints`: for `linear`
+    /// the local second difference × (t − t₀)(t₁ − t)/2 (≤ |a|·dt²/8), for `cubic-hermite` the
+    /// effect of the third difference on the finite-difference tangents; `Some(0.0)` for a
+    /// sample taken as is (`slots`, or a frame exactly at the instant); `None` when there were
+    /// too few samples to estimate it.
+    pub interpolation_error_m: Vec<Option<f64>>,
+    /// Sequence numbers of the frames used.
+    pub frame_seqs: Vec<u64>,
+    /// Capture time of the nearest frame used minus the set's stamp, nanoseconds (`slots`: how
+    /// far the sensor's frame is from the fusion instant; `interpolate`: how far the nearest real
+    /// sample is).
+    pub skew_nanos: i64,
+    /// Clock-sync uncertainty of the frames used (the largest), nanoseconds.
+    pub time_uncertainty_nanos: i64,
+}
+
+/// Every sensor's joints at one server instant: what crosses the `sync → trilaterate` edge.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AlignedSet {
+    /// Counter of sets emitted by this buffer, from 0.
+    pub seq: u64,
+    /// The instant the set describes, server clock, nanoseconds. Strictly increasing.
+    pub stamp_nanos: i64,
+    /// The policy that built the set.
+    pub policy: Policy,
+    /// Per sensor that contributed.
+    pub sensors: BTreeMap<String, SensorView>,
+    /// Sensors expected but absent from this set, sorted.
+    pub missing: Vec<String>,
+    /// The largest clock-sync uncertainty among the sensors, nanoseconds.
+    pub time_uncertainty_nanos: i64,
+}
+
+impl AlignedSet {
+    /// Every expected sensor contributed.
+    #[must_use]
+    pub fn is_complete(&self) -> bool {
+        self.missing.is_empty()
+    }
+
+    /// The largest |skew| among the sensors, nanoseconds.
+    #[must_use]
+    pub fn max_abs_skew_nanos(&self) -> i64 {
+        self.sensors
+            .values()
+            .map(|v| v.skew_nanos.saturating_abs())
+            .max()
+            .unwrap_or(0)
+    }
+}
+
+/// Running totals of a [`SyncBuffer`], for logs and the recorder's `summary.json`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SyncCounters {
+    /// Frames given to `push`/`push_timed`.
+    pub frames_in: u64,
+    /// Frames from a sensor id the buffer was not built with (dropped).
+    pub frames_unknown_sensor: u64,
+    /// Frames before their sensor's first accepted NTP sample (dropped).
+    pub frames_unsynchronised: u64,
+    /// Frames whose `seq` was already buffered (dropped).
+    pub frames_duplicate: u64,
+    /// Frames that arrived after a set they belonged to was emitted (kept for later sets).
+    pub frames_late: u64,
+    /// Frames dropped because a sensor's buffer was full.
+    pub frames_evicted: u64,
+    /// NTP samples given to `push_ntp`.
+    pub ntp_in: u64,
+    /// NTP samples rejected (any reason).
+    pub ntp_rejected: u64,
+    /// Clock steps detected.
+    pub clock_steps: u64,
+    /// Sets emitted.
+    pub sets_out: u64,
+    /// Sets emitted with at least one sensor missing.
+    pub sets_incomplete: u64,
+    /// Instants (`interpolate`) or cycles (`slots`) skipped because no sensor had data there.
+    pub sets_empty: u64,
+}
+
+#[derive(Debug, Clone)]
+struct SensorState {
+    slot: usize,
+    clock: ClockFilter,
+    frames: VecDeque<TimedFrame>,
+    first_stamp: Option<i64>,
+    newest_stamp: Option<i64>,
+}
+
+/// Aligns the frames of N sensors on the server clock and groups them into [`AlignedSet`]s
+/// (DESIGN.md, Time; thesis §6.4.1–6.4.2). Generic over the number of sensors; state per sensor in
+/// a `BTreeMap`, so output never depends on the order of ids or of arrival among sensors.
+///
+/// Time only moves with the data: "now" is the newest server-mapped capture stamp pushed, or what
+/// [`SyncBuffer::advance_to`] was told (a node calls it on a timer so a set still goes out when
+/// every source has stopped).
+#[derive(Debug, Clone)]
+pub struct SyncBuffer {
+    params: SyncParams,
+    sensors: BTreeMap<String, SensorState>,
+    /// Next instant index (`interpolate`) or cycle index (`slots`) to emit.
+    next: Option<i64>,
+    now_nanos: Option<i64>,
+    last_stamp_nanos: Option<i64>,
+    seq: u64,
+    counters: SyncCounters,
+}
+
+impl SyncBuffer {
+    /// A buffer for `sensor_ids`. Under `slots`, sensor i of this list sends in slot i (thesis
+    /// k₁, k₂, k₃, …); under `interpolate` the order does not matter.
+    pub fn new<I, S>(sensor_ids: I, params: SyncParams) -> Result<Self>
+    where
+        I: IntoIterator<Item = S>,
+        S: Into<String>,
+    {
+        params.validate()?;
+        let mut sensors = BTreeMap::new();
+        for (slot, id) in sensor_ids.into_iter().enumerate() {
+            let id: String = id.into();
+            let state = SensorState {
+                slot,
+                clock: ClockFilter::new(params.clock.clone())?,
+                frames: VecDeque::new(),
+                first_stamp: None,
+                newest_stamp: None,
+            };
+            if sensors.insert(id.clone(), state).is_some() {
+                return Err(Error::DuplicateSensor { sensor_id: id });
+            }
+        }
+        if sensors.is_empty() {
+            return Err(Error::NoSensors);
+        }
+        Ok(SyncBuffer {
+            params,
+            sensors,
+            next: None,
+            now_nanos: None,
+            last_stamp_nanos: None,
+            seq: 0,
+            counters: SyncCounters::default(),
+        })
+    }
+
+    /// The parameters in use.
+    #[must_use]
+    pub fn params(&self) -> &SyncParams {
+        &self.params
+    }
+
+    /// The running totals.
+    #[must_use]
+    pub fn counters(&self) -> &SyncCounters {
+        &self.counters
+    }
+
+    /// Sensor ids, sorted.
+    pub fn sensor_ids(&self) -> impl Iterator<Item = &str> {
+        self.sensors.keys().map(String::as_str)
+    }
+
+    /// The clock filter of `sensor_id` (for its [`ClockFilter::estimate`]).
+    #[must_use]
+    pub fn clock(&self, sensor_id: &str) -> Option<&ClockFilter> {
+        self.sensors.get(sensor_id).map(|s| &s.clock)
+    }
+
+    fn unknown(&self, sensor_id: &str) -> Error {
+        Error::UnknownSensor {
+            sensor_id: sensor_id.to_owned(),
+            known: self.sensors.keys().cloned().collect(),
+        }
+    }
+
+    /// Feeds one NTP exchange with `sensor_id` to that sensor's clock filter.
+    pub fn push_ntp(&mut self, sensor_id: &str, sample: NtpSample) -> Result<SampleOutcome> {
+        let Some(state) = self.sensors.get_mut(sensor_id) else {
+            return Err(self.unknown(sensor_id));
+        };
+        self.counters.ntp_in += 1;
+        let outcome = state.clock.push(sample);
+        match outcome {
+            SampleOutcome::Rejected(_) => self.counters.ntp_rejected += 1,
+            SampleOutcome::Step { .. } => self.counters.clock_steps += 1,
+            SampleOutcome::Accepted(_) => {}
+        }
+        Ok(outcome)
+    }
+
+    /// Server time of a sensor-local stamp, if that sensor is synchronised.
+    #[must_use]
+    pub fn server_from_local(&self, sensor_id: &str, local_nanos: i64) -> Option<ServerTime> {
+        self.sensors
+            .get(sensor_id)?
+            .clock
+            .server_from_local(local_nanos)
+    }
+
+    /// Maps `frame` to server time with its sensor's clock filter, buffers it, and returns the
+    /// sets that became ready. Errors (frame dropped and counted): unknown sensor, sensor not
+    /// synchronised yet.
+    pub fn push(
+        &mut self,
+        frame: SkeletonFrame,
+    ) -> Result<impl Iterator<Item = AlignedSet> + use<>> {
+        let mapped = match self.sensors.get(&frame.sensor_id) {
+            None => {
+                self.counters.frames_in += 1;
+                self.counters.frames_unknown_sensor += 1;
+                return Err(self.unknown(&frame.sensor_id));
+            }
+            Some(state) => state.clock.server_from_local(frame.local_stamp_nanos),
+        };
+        let Some(mapped) = mapped else {
+            self.counters.frames_in += 1;
+            self.counters.frames_unsynchronised += 1;
+            return Err(Error::NotSynchronised {
+                sensor_id: frame.sensor_id,
+                seq: frame.seq,
+            });
+        };
+        self.push_timed(TimedFrame {
+            frame,
+            server_stamp_nanos: mapped.server_nanos,
+            time_uncertainty_nanos: mapped.uncertainty_nanos,
+        })
+    }
+
+    /// Buffers a frame already on the server clock (replays, tests, an external sync) and
+    /// returns the sets that became ready.
+    pub fn push_timed(
+        &mut self,
+        timed: TimedFrame,
+    ) -> Result<impl Iterator<Item = AlignedSet> + use<>> {
+        self.counters.frames_in += 1;
+        let Some(state) = self.sensors.get_mut(&timed.frame.sensor_id) else {
+            self.counters.frames_unknown_sensor += 1;
+            return Err(self.unknown(&timed.frame.sensor_id));
+        };
+        if state.frames.iter().any(|f| f.frame.seq == timed.frame.seq) {
+            self.counters.frames_duplicate += 1;
+            return Ok(Vec::new().into_iter());
+        }
+        let stamp = timed.server_stamp_nanos;
+        if self.last_stamp_nanos.is_some_and(|last| stamp <= last) {
+            self.counters.frames_late += 1;
+        }
+        let at = state
+            .frames
+            .partition_point(|f| f.server_stamp_nanos <= stamp);
+        state.frames.insert(at, timed);
+        while state.frames.len() > self.params.max_frames_per_sensor {
+            state.frames.pop_front();
+            self.counters.frames_evicted += 1;
+        }
+        state.first_stamp = Some(state.first_stamp.map_or(stamp, |s| s.min(stamp)));
+        state.newest_stamp = Some(state.newest_stamp.map_or(stamp, |s| s.max(stamp)));
+        self.now_nanos = Some(self.now_nanos.map_or(stamp, |n| n.max(stamp)));
+        Ok(self.drain().into_iter())
+    }
+
+    /// Tells the buffer that server time `now_nanos` has been reached even if no frame says so
+    /// (e.g. from a timer while every source is silent); returns the sets whose deadline passed.
+    pub fn advance_to(&mut self, now_nanos: i64) -> impl Iterator<Item = AlignedSet> + use<> {
+        self.now_nanos = Some(self.now_nanos.map_or(now_nanos, |n| n.max(now_nanos)));
+        self.drain().into_iter()
+    }
+
+    /// Emits every set the buffered frames can still make (end of stream).
+    pub fn flush(&mut self) -> impl Iterator<Item = AlignedSet> + use<> {
+        let newest = self.sensors.values().filter_map(|s| s.newest_stamp).max();
+        match newest {
+            Some(newest) => {
+                let until = newest
+                    .saturating_add(self.params.latency_deadline_nanos)
+                    .saturating_add(self.params.max_extrapolation_nanos)
+                    .saturating_add(1);
+                self.now_nanos = Some(self.now_nanos.map_or(until, |n| n.max(until)));
+                self.drain().into_iter()
+            }
+            None => Vec::new().into_iter(),
+        }
+    }
+
+    // ---- schedule -------------------------------------------------------------------------
+
+    fn cycle_nanos(&self) -> i64 {
+        let n = i64::try_from(self.sensors.len()).unwrap_or(i64::MAX);
+        self.params.slot_nanos.saturating_mul(n.saturating_add(1))
+    }
+
+    /// The set's stamp for index `k`: fusion instant, or start of the fusion slot.
+    fn stamp_of(&self, k: i64) -> i64 {
+        match self.params.policy {
+            Policy::Interpolate => self.instant(k),
+            Policy::Slots => {
+                let n = i64::try_from(self.sensors.len()).unwrap_or(i64::MAX);
+                self.cycle_start(k)
+                    .saturating_add(self.params.slot_nanos.saturating_mul(n))
+            }
+        }
+    }
+
+    fn cycle_start(&self, k: i64) -> i64 {
+        saturate(
+            i128::from(self.params.slot_origin_nanos)
+                + i128::from(k) * i128::from(self.cycle_nanos()),
+        )
+    }
+
+    fn slot_end(&self, k: i64, slot: usize) -> i64 {
+        let i = i128::try_from(slot).unwrap_or(i128::MAX / 4) + 1;
+        saturate(i128::from(self.cycle_start(k)) + i * i128::from(self.params.slot_nanos))
+    }
+
+    /// Fusion rate in millihertz, so instants are exact integers for rates like 30 or 29.97 Hz.
+    fn rate_millihertz(&self) -> i128 {
+        ((self.params.fusion_rate_hz * 1000.0).round() as i128).max(1)
+    }
+
+    fn instant(&self, k: i64) -> i64 {
+        let offset = (i128::from(k) * 1_000_000_000_000).div_euclid(self.rate_millihertz());
+        saturate(i128::from(self.params.fusion_origin_nanos) + offset)
+    }
+
+    /// Smallest index whose stamp is ≥ `t`.
+    fn first_index_at_or_after(&self, t: i64) -> i64 {
+        let mut k = match self.params.policy {
+            Policy::Interpolate => {
+                let rel = i128::from(t) - i128::from(self.params.fusion_origin_nanos);
+                saturate((rel * self.rate_millihertz()).div_euclid(1_000_000_000_000))
+            }
+            Policy::Slots => {
+                let rel = i128::from(t) - i128::from(self.params.slot_origin_nanos);
+                saturate(rel.div_euclid(i128::from(self.cycle_nanos().max(1))))
+            }
+        };
+        // The estimate is off by at most one either way; settle it exactly.
+        while k > i64::MIN && self.stamp_of(k - 1) >= t {
+            k -= 1;
+        }
+        while k < i64::MAX && self.stamp_of(k) < t {
+            k += 1;
+        }
+        k
+    }
+
+    /// Smallest index whose set can use a frame captured at `t`.
+    fn first_index_using(&self, t: i64) -> i64 {
+        match self.params.policy {
+            Policy::Interpolate => {
+                self.first_index_at_or_after(t.saturating_sub(self.params.max_extrapolation_nanos))
+            }
+            Policy::Slots => {
+                let rel = i128::from(t) - i128::from(self.params.slot_origin_nanos);
+                saturate(rel.div_euclid(i128::from(self.cycle_nanos().max(1))))
+            }
+        }
+    }
+
+    // ---- emission -------------------------------------------------------------------------
+
+    fn drain(&mut self) -> Vec<AlignedSet> {
+        let mut out = Vec::new();
+        loop {
+            let Some(k) = self.next.or_else(|| self.start_index()) else {
+                break;
+            };
+            self.next = Some(k);
+            if !self.ready(k) {
+                break;
+            }
+            match self.build(k) {
+                Some(set) => {
+                    self.counters.sets_out += 1;
+                    if !set.is_complete() {
+                        self.counters.sets_incomplete += 1;
+                    }
+                    self.last_stamp_nanos = Some(set.stamp_nanos);
+                    self.seq += 1;
+                    out.push(set);
+                    self.next = Some(k.saturating_add(1));
+                }
+                None => {
+                    // Nothing anywhere near this instant: jump to the next frame, if any.
+                    let stamp = self.stamp_of(k);
+                    let upcoming = self
+                        .sensors
+                        .values()
+                        .filter_map(|s| {
+                            s.frames
+                                .iter()
+                                .map(|f| f.server_stamp_nanos)
+                                .find(|&t| t > stamp)
+                        })
+                        .min();
+                    let Some(upcoming) = upcoming else { break };
+                    let jump = self.first_index_using(upcoming).max(k.saturating_add(1));
+                    self.counters.sets_empty += u64::try_from(jump - k).unwrap_or(0);
+                    self.next = Some(jump);
+                }
+            }
+            if let Some(k) = self.next {
+                self.prune(k);
+            }
+        }
+        out
+    }
+
+    /// Where to start once every sensor has sent a frame, or the deadline passed since the first.
+    fn start_index(&self) -> Option<i64> {
+        let firsts: Vec<i64> = self
+            .sensors
+            .values()
+            .filter_map(|s| s.first_stamp)
+            .collect();
+        let earliest = *firsts.iter().min()?;
+        let latest = *firsts.iter().max()?;
+        let everyone = firsts.len() == self.sensors.len();
+        let waited = self
+            .now_nanos
+            .is_some_and(|now| now >= earliest.saturating_add(self.params.latency_deadline_nanos));
+        (everyone || waited).then(|| match self.params.policy {
+            Policy::Interpolate => self.first_index_at_or_after(latest),
+            Policy::Slots => self.first_index_using(latest),
+        })
+    }
+
+    fn ready(&self, k: i64) -> bool {
+        let stamp = self.stamp_of(k);
+        if self
+            .now_nanos
+            .is_some_and(|now| now >= stamp.saturating_add(self.params.latency_deadline_nanos))
+        {
+            return true;
+        }
+        self.sensors.values().all(|s| match self.params.policy {
+            Policy::Interpolate => {
+                let need = match self.params.interpolation {
+                    Interpolation::Linear => 1,
+                    Interpolation::CubicHermite => 2,
+                };
+                s.frames
+                    .iter()
+                    .rev()
+                    .take_while(|f| f.server_stamp_nanos >= stamp)
+                    .count()
+                    >= need
+            }
+            Policy::Slots => s
+                .newest_stamp
+                .is_some_and(|t| t >= self.slot_end(k, s.slot)),
+        })
+    }
+
+    fn prune(&mut self, next: i64) {
+        let keep_from = match self.params.policy {
+            Policy::Interpolate => self
+                .stamp_of(next)
+                .saturating_sub(self.params.max_gap_nanos.saturating_mul(2)),
+            Policy::Slots => self
+                .cycle_start(next)
+                .saturating_sub(self.params.slot_max_frame_age_nanos),
+        };
+        for s in self.sensors.values_mut() {
+            while s
+                .frames
+                .front()
+                .is_some_and(|f| f.server_stamp_nanos < keep_from)
+            {
+                s.frames.pop_front();
+            }
+        }
+    }
+
+    fn build(&self, k: i64) -> Option<AlignedSet> {
+        let stamp = self.stamp_of(k);
+        let mut sensors = BTreeMap::new();
+        let mut missing = Vec::new();
+        for (id, state) in &self.sensors {
+            let view = match self.params.policy {
+                Policy::Slots => self.slot_view(k, stamp, state),
+                Policy::Interpolate => resample(&state.frames, stamp, &self.params),
+            };
+            match view {
+                Some(v) if !v.joints.is_empty() => {
+                    sensors.insert(id.clone(), v);
+                }
+                _ => missing.push(id.clone()),
+            }
+        }
+        if sensors.is_empty() {
+            return None;
+        }
+        let time_uncertainty_nanos = sensors
+            .values()
+            .map(|v: &SensorView| v.time_uncertainty_nanos)
+            .max()
+            .unwrap_or(0);
+        Some(AlignedSet {
+            seq: self.seq,
+            stamp_nanos: stamp,
+            policy: self.params.policy,
+            sensors,
+            missing,
+            time_uncertainty_nanos,
+        })
+    }
+
+    /// Thesis §6.4.2: the newest frame captured before the end of the sensor's slot, if it is
+    /// not older than `slot_max_frame_age_nanos`.
+    fn slot_view(&self, k: i64, stamp: i64, state: &SensorState) -> Option<SensorView> {
+        let end = self.slot_end(k, state.slot);
+        let oldest = end.saturating_sub(self.params.slot_max_frame_age_nanos);
+        let f = state
+            .frames
+            .iter()
+            .rev()
+            .find(|f| f.server_stamp_nanos < end && f.server_stamp_nanos >= oldest)?;
+        let joints: Vec<JointSample> = usable(&f.frame).collect();
+        Some(SensorView {
+            interpolation_error_m: vec![Some(0.0); joints.len()],
+            joints,
+            frame_seqs: vec![f.frame.seq],
+            skew_nanos: f.server_stamp_nanos.saturating_sub(stamp),
+            time_uncertainty_nanos: f.time_uncertainty_nanos,
+        })
+    }
+}
+
+fn saturate(v: i128) -> i64 {
+    i64::try_from(v).unwrap_or(if v < 0 { i64::MIN } else { i64::MAX })
+}
+
+fn usable(frame: &SkeletonFrame) -> impl Iterator<Item = JointSample> + '_ {
+    let mut seen = BTreeSet::new();
+    let mut joints: Vec<JointSample> = frame
+        .joints
+        .iter()
+        .filter(|s| s.state != TrackingState::NotTracked && seen.insert(s.joint))
+        .copied()
+        .collect();
+    joints.sort_by_key(|s| s.joint);
+    joints.into_iter()
+}
+
+/// One usable sample of one joint.
+#[derive(Debug, Clone, Copy)]
+struct Knot {
+    t: i64,
+    p: Point3<f64>,
+    state: TrackingState,
+    seq: u64,
+    uncertainty: i64,
+}
+
+/// Seconds between two stamps (f64, exact enough at any absolute epoch).
+fn secs(from: i64, to: i64) -> f64 {
+    (i128::from(to) - i128::from(from)) as f64 * 1e-9
+}
+
+/// Second divided difference ×2 (≈ acceleration) through three knots.
+fn second_derivative(a: &Knot, b: &Knot, c: &Knot) -> Option<Vector3<f64>> {
+    let (h0, h1) = (secs(a.t, b.t), secs(b.t, c.t));
+    if h0 <= 0.0 || h1 <= 0.0 {
+        return None;
+    }
+    Some(((c.p - b.p) / h1 - (b.p - a.p) / h0) * (2.0 / (h0 + h1)))
+}
+
+/// The `interpolate` policy for one sensor at instant `t`.
+fn resample(frames: &VecDeque<TimedFrame>, t: i64, params: &SyncParams) -> Option<SensorView> {
+    let window = params.max_gap_nanos.saturating_mul(2);
+    let near: Vec<&TimedFrame> = frames
+        .iter()
+        .filter(|f| (i128::from(f.server_stamp_nanos) - i128::from(t)).abs() <= i128::from(window))
+        .collect();
+    let joint_ids: BTreeSet<Joint> = near
+        .iter()
+        .flat_map(|f| f.frame.joints.iter())
+        .filter(|s| s.state != TrackingState::NotTracked)
+        .map(|s| s.joint)
+        .collect();
+
+    let mut joints = Vec::new();
+    let mut errors = Vec::new();
+    let mut seqs = BTreeSet::new();
+    let mut nearest: Option<i64> = None;
+    let mut uncertainty = 0;
+    for joint in joint_ids {
+        let knots: Vec<Knot> = near
+            .iter()
+            .filter_map(|f| {
+                f.frame.joint(joint).map(|s| Knot {
+                    t: f.server_stamp_nanos,
+                    p: s.position_in_kinect,
+                    state: s.state,
+                    seq: f.frame.seq,
+                    uncertainty: f.time_uncertainty_nanos,
+                })
+            })
+            .collect();
+        let Some((position, state, error, used)) = resample_joint(&knots, t, params) else {
+            continue;
+        };
+        joints.push(JointSample {
+            joint,
+            position_in_kinect: position,
+            state,
+        });
+        errors.push(error);
+        for knot in used {
+            seqs.insert(knot.seq);
+            uncertainty = uncertainty.max(knot.uncertainty);
+            let skew = knot.t.saturating_sub(t);
+            if nearest.is_none_or(|n| skew.saturating_abs() < n.saturating_abs()) {
+                nearest = Some(skew);
+            }
+        }
+    }
+    Some(SensorView {
+        joints,
+        interpolation_error_m: errors,
+        frame_seqs: seqs.into_iter().collect(),
+        skew_nanos: nearest?,
+        time_uncertainty_nanos: uncertainty,
+    })
+}
+
+type Resampled = (Point3<f64>, TrackingState, Option<f64>, Vec<Knot>);
+
+/// Resamples one joint's knots (sorted by time) at `t`; `None` if the rules forbid it.
+fn resample_joint(knots: &[Knot], t: i64, params: &SyncParams) -> Option<Resampled> {
+    let gap_ok = |a: &Knot, b: &Knot| b.t.saturating_sub(a.t) <= params.max_gap_nanos;
+    let after = knots.partition_point(|k| k.t < t);
+    // Exactly on a knot.
+    if let Some(k) = knots.get(after).filter(|k| k.t == t) {
+        return Some((k.p, k.state, Some(0.0), vec![*k]));
+    }
+    let before = after.checked_sub(1);
+    match (before.and_then(|i| knots.get(i)), knots.get(after)) {
+        (Some(a), Some(b)) if gap_ok(a, b) => {
+            let prev = before
+                .and_then(|i| i.checked_sub(1))
+                .and_then(|i| knots.get(i))
+                .filter(|p| gap_ok(p, a));
+            let next = knots.get(after + 1).filter(|n| gap_ok(b, n));
+            let h = secs(a.t, b.t);
+            let s = secs(a.t, t) / h;
+            // Lagrange remainder of the chord: f''·(t − t₀)(t₁ − t)/2.
+            let chord_factor = secs(a.t, t) * secs(t, b.t) / 2.0;
+            let chord_error = prev
+                .and_then(|p| second_derivative(p, a, b))
+                .or_else(|| next.and_then(|n| second_derivative(a, b, n)))
+                .map(|acc| acc.norm() * chord_factor);
+            let (p, error) = match params.interpolation {
+                Interpolation::Linear => (a.p + (b.p - a.p) * s, chord_error),
+                Interpolation::CubicHermite => {
+                    let chord = (b.p - a.p) / h;
+                    let m0 = prev.map_or(chord, |p| (b.p - p.p) / secs(p.t, b.t));
+                    let m1 = next.map_or(chord, |n| (n.p - a.p) / secs(a.t, n.t));
+                    let (s2, s3) = (s * s, s * s * s);
+                    let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+                    let h10 = s3 - 2.0 * s2 + s;
+                    let h01 = -2.0 * s3 + 3.0 * s2;
+                    let h11 = s3 - s2;
+                    let p = Point3::from(
+                        a.p.coords * h00 + m0 * (h10 * h) + b.p.coords * h01 + m1 * (h11 * h),
+                    );
+                    // Central-difference tangents are off by ≈ f'''·h²/6; their weight in the
+                    // Hermite basis is h·(|h10| + |h11|).
+                    let error = match (prev, next) {
+                        (Some(p0), Some(n)) => third_derivative(p0, a, b, n)
+                            .map(|jerk| jerk.norm() * h * h / 6.0 * h * (h10.abs() + h11.abs())),
+                        _ => chord_error,
+                    };
+                    (p, error)
+                }
+            };
+            let mut used = vec![*a, *b];
+            if params.interpolation == Interpolation::CubicHermite {
+                used.extend(prev.copied());
+                used.extend(next.copied());
+            }
+            Some((p, a.state.min(b.state), error, used))
+        }
+        (Some(a), _) if t.saturating_sub(a.t) <= params.max_extrapolation_nanos => {
+            let i = before?;
+            let p = knots.get(i.checked_sub(1)?).filter(|p| gap_ok(p, a))?;
+            let q = i
+                .checked_sub(2)
+                .and_then(|j| knots.get(j))
+                .filter(|q| gap_ok(q, p));
+            Some(extrapolate(p, a, q, t))
+        }
+        (_, Some(b)) if b.t.saturating_sub(t) <= params.max_extrapolation_nanos => {
+            let n = knots.get(after + 1).filter(|n| gap_ok(b, n))?;
+            let q = knots.get(after + 2).filter(|q| gap_ok(n, q));
+            Some(extrapolate(n, b, q, t))
+        }
+        _ => None,
+    }
+}
+
+/// Linear extrapolation from `far` through `near` to `t`; error from the second difference with
+/// `third` (the knot beyond `far`) when there is one.
+fn extrapolate(far: &Knot, near: &Knot, third: Option<&Knot>, t: i64) -> Resampled {
+    let h = secs(far.t, near.t);
+    let p = near.p + (near.p - far.p) * (secs(near.t, t) / h);
+    let error = third.and_then(|q| {
+        let (a, b, c) = if q.t < far.t {
+            (q, far, near)
+        } else {
+            (near, far, q)
+        };
+        second_derivative(a, b, c)
+            .map(|acc| acc.norm() * (secs(far.t, t) * secs(near.t, t)).abs() / 2.0)
+    });
+    (p, near.state.min(far.state), error, vec![*far, *near])
+}
+
+/// Third derivative (6 × third divided difference) through four knots in time order.
+fn third_derivative(a: &Knot, b: &Knot, c: &Knot, d: &Knot) -> Option<Vector3<f64>> {
+    let dd1 = |x: &Knot, y: &Knot| {
+        let h = secs(x.t, y.t);
+        (h > 0.0).then(|| (y.p - x.p) / h)
+    };
+    let (ab, bc, cd) = (dd1(a, b)?, dd1(b, c)?, dd1(c, d)?);
+    let abc = (bc - ab) / secs(a.t, c.t);
+    let bcd = (cd - bc) / secs(b.t, d.t);
+    let abcd = (bcd - abc) / secs(a.t, d.t);
+    Some(abcd * 6.0)
+}

@@ -1,0 +1,39 @@
+//! Clock synchronisation and aligned-set assembly for several Kinect v2 sensors (thesis §6.4.1,
+//! §6.4.2, §6.4.4 / Fig. 6.10), as pure code: no I/O, no threads, no clock reads. The `sync` node
+//! of the dataflow is a thin adapter around [`SyncBuffer`]; the `trigait` CLI replays recordings
+//! through the same code.
+//!
+//! Why it exists: trilateration (thesis ch. 4) combines one joint seen by several sensors *at one
+//! instant*. The sensors run on different PCs with their own clocks, and a Kinect v2 cannot be
+//! triggered, so two things must happen before fusion:
+//!
+//! 1. **Clock sync** ([`ntp`], [`ClockFilter`]): the thesis's four-timestamp NTP exchange
+//!    (eq. 6.1–6.3) measures each sensor clock's offset to the server clock to ±d/2. We add what a
+//!    long recording needs: a window of exchanges, rejection of high-delay samples, a weighted
+//!    least-squares fit of offset **and drift**, an uncertainty for every mapped stamp, and
+//!    detection of clock steps.
+//! 2. **Alignment** ([`SyncBuffer`]): frames, now on the server clock, are grouped into
+//!    [`AlignedSet`]s under one of two [`Policy`]s. `slots` is the thesis's time schedule: a
+//!    cycle of n+1 slots (60 ms = 4 × 15 ms for 3 sensors), sensor i's frame from slot i, fusion
+//!    in the last slot. `interpolate` resamples every sensor's joint tracks at common fusion
+//!    instants, which removes the inter-sensor skew that the slot schedule leaves (up to a cycle:
+//!    ≈ 20 cm for an ankle at 4 m/s), and reports an interpolation error budget per joint.
+//!
+//! Time is `i64` nanoseconds everywhere (`_nanos`); positions are metres in each sensor's Kinect
+//! camera frame (x left, y up, z out of the lens) — this crate never changes frames. [`sim`]
+//! provides clocks with offset, drift and jitter and links with asymmetric, heavy-tailed delays,
+//! deterministic from a seed, for tests and for the simulator's sensors.
+#![warn(missing_docs)]
+
+mod buffer;
+mod error;
+mod filter;
+pub mod ntp;
+mod params;
+pub mod sim;
+
+pub use buffer::{AlignedSet, SensorView, SyncBuffer, SyncCounters, TimedFrame};
+pub use error::{Error, Result};
+pub use filter::{ClockEstimate, ClockFilter, ClockFilterParams, SampleOutcome, ServerTime};
+pub use ntp::{NtpMeasurement, NtpSample, Rejection};
+pub use params::{Interpolation, Policy, SyncParams};
