@@ -14,4 +14,4 @@ mod joint;
 
 pub use clip::{ClipError, MotionClip};
 pub use frame::{JointSample, SkeletonFrame};
-pub use joint::{Joint, TrackingState};
+pub use joint::{Joint, Side, TrackingState};
