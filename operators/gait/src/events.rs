@@ -87,9 +87,10 @@ pub enum EventMethod {
     Coordinate,
     /// Foot-velocity method after Ghoussayni et al. (2004): a foot is in stance while its
     /// horizontal speed is below a threshold. Heel strike is where the heel (ankle) speed falls
-    /// below it at the end of a swing, toe off where the toe (foot, else ankle) speed rises above
-    /// it at the start of one. The threshold is a fraction of the segment's walking speed
-    /// ([`EventParams::velocity_threshold_fraction`]) so it scales with slow or fast walkers.
+    /// below [`EventParams::heel_strike_speed_fraction`] × the segment's walking speed at the
+    /// end of a swing, toe off where the toe (foot, else ankle) speed rises above
+    /// [`EventParams::toe_off_speed_fraction`] × walking speed at the start of one. Scaling
+    /// with walking speed keeps the thresholds right for slow and fast walkers.
     Velocity,
 }
 
@@ -116,10 +117,17 @@ pub struct EventParams {
     /// Both methods: events of the same kind and foot closer than this (s) are merged, keeping
     /// the more prominent. Default 0.4 s, below the shortest stride time of walking (≈ 0.8 s).
     pub min_separation_secs: f64,
-    /// Velocity method: stance threshold as a fraction of the segment's walking speed. Default
-    /// 0.4 (0.5 m/s at 1.25 m/s, Ghoussayni's value for normal walking).
-    pub velocity_threshold_fraction: f64,
-    /// Velocity method: a swing must reach this multiple of the threshold. Default 2.
+    /// Velocity method: heel-strike threshold on the heel stand-in's horizontal speed, as a
+    /// fraction of the segment's walking speed. Default 1.0. Ghoussayni et al. used 0.5 m/s on a
+    /// heel marker (≈ 0.4 × walking speed), but the *ankle* keeps rolling forward over the heel
+    /// after contact: on the CMU and OpenSim walks a 0.4 threshold fires 120–150 ms after the
+    /// heel marker reaches the floor, 1.0 fires 50–65 ms after it, like the coordinate method.
+    pub heel_strike_speed_fraction: f64,
+    /// Velocity method: toe-off threshold on the toe stand-in's horizontal speed, as a fraction
+    /// of the segment's walking speed. Default 0.4 (Ghoussayni's 0.5 m/s at 1.25 m/s).
+    pub toe_off_speed_fraction: f64,
+    /// Velocity method: a swing must reach this multiple of its threshold. Default 1.8 (a
+    /// swinging foot moves at 2–3 × walking speed).
     pub swing_peak_factor: f64,
 }
 
@@ -129,8 +137,9 @@ impl Default for EventParams {
             method: EventMethod::Coordinate,
             min_prominence_m: 0.04,
             min_separation_secs: 0.4,
-            velocity_threshold_fraction: 0.4,
-            swing_peak_factor: 2.0,
+            heel_strike_speed_fraction: 1.0,
+            toe_off_speed_fraction: 0.4,
+            swing_peak_factor: 1.8,
         }
     }
 }
@@ -159,9 +168,14 @@ impl EventParams {
             self.min_separation_secs > 0.0,
         )?;
         check(
-            "velocity_threshold_fraction",
-            self.velocity_threshold_fraction,
-            self.velocity_threshold_fraction > 0.0,
+            "heel_strike_speed_fraction",
+            self.heel_strike_speed_fraction,
+            self.heel_strike_speed_fraction > 0.0,
+        )?;
+        check(
+            "toe_off_speed_fraction",
+            self.toe_off_speed_fraction,
+            self.toe_off_speed_fraction > 0.0,
         )?;
         check(
             "swing_peak_factor",
@@ -323,7 +337,8 @@ fn swings(speed: &[f64], threshold: f64, peak: f64, merge: usize) -> Vec<(usize,
     runs
 }
 
-/// Ghoussayni et al. (2004), horizontal speed against a speed-scaled threshold.
+/// Ghoussayni et al. (2004), horizontal speed against a speed-scaled threshold. A heel strike
+/// needs at least 0.1 s of observed stance after it and a toe off 0.1 s before it.
 fn velocity_events(
     tracks: &Tracks,
     segment: &WalkingSegment,
@@ -332,11 +347,10 @@ fn velocity_events(
     params: &EventParams,
     events: &mut Vec<GaitEvent>,
 ) {
-    let threshold = params.velocity_threshold_fraction * segment.speed_mps;
-    let peak = params.swing_peak_factor * threshold;
     let merge = (0.1 * tracks.rate_hz).round() as usize;
+    let min_stance = ((0.1 * tracks.rate_hz).round() as usize).max(2);
     let first = segment.first_frame as f64;
-    let crossing = |speed: &[f64], i: usize, j: usize| -> f64 {
+    let crossing = |speed: &[f64], threshold: f64, i: usize, j: usize| -> f64 {
         // Linear interpolation of the threshold crossing between samples i and j = i ± 1.
         let (si, sj) = (speed[i], speed[j]);
         let frac = if (sj - si).abs() > 1e-12 {
@@ -346,14 +360,20 @@ fn velocity_events(
         };
         i as f64 + frac * (j as f64 - i as f64)
     };
+    let threshold = params.heel_strike_speed_fraction * segment.speed_mps;
+    let peak = params.swing_peak_factor * threshold;
     if let Some(heel) = horizontal_speed(tracks, &tracks.heel[foot.index()], segment) {
         let last = heel.len() - 1;
         let mut previous: Option<f64> = None;
-        for (_, end) in swings(&heel, threshold, peak, merge) {
-            if end >= last {
-                continue; // the swing runs past the segment end: its landing is unseen
+        let runs = swings(&heel, threshold, peak, merge);
+        for (k, &(_, end)) in runs.iter().enumerate() {
+            // The stance that follows must be seen for `min_stance` samples (or until the next
+            // swing): a foot slowing in terminal swing as the recording ends is no heel strike.
+            let stance_end = runs.get(k + 1).map_or(last + 1, |next| next.0);
+            if end >= last || stance_end - (end + 1) < min_stance {
+                continue;
             }
-            let f = crossing(&heel, end, end + 1);
+            let f = crossing(&heel, threshold, end, end + 1);
             if previous.is_none_or(|p| f - p >= params.min_separation_secs * tracks.rate_hz) {
                 push(
                     events,
@@ -367,13 +387,22 @@ fn velocity_events(
             }
         }
     }
+    let threshold = params.toe_off_speed_fraction * segment.speed_mps;
+    let peak = params.swing_peak_factor * threshold;
     if let Some(toe) = horizontal_speed(tracks, &tracks.toe[foot.index()], segment) {
         let mut previous: Option<f64> = None;
-        for (start, _) in swings(&toe, threshold, peak, merge) {
-            if start == 0 {
-                continue; // the swing began before the segment: its toe off is unseen
+        let runs = swings(&toe, threshold, peak, merge);
+        for (k, &(start, _)) in runs.iter().enumerate() {
+            // The stance before must have been seen for `min_stance` samples (or since the
+            // previous swing); a swing under way at the segment start has no observed toe off.
+            let stance_start = match k.checked_sub(1).and_then(|p| runs.get(p)) {
+                Some(previous_swing) => previous_swing.1 + 1,
+                None => 0,
+            };
+            if start == 0 || start - stance_start < min_stance {
+                continue;
             }
-            let f = crossing(&toe, start - 1, start);
+            let f = crossing(&toe, threshold, start - 1, start);
             if previous.is_none_or(|p| f - p >= params.min_separation_secs * tracks.rate_hz) {
                 push(
                     events,
