@@ -391,10 +391,7 @@ impl SyncBuffer {
 
     fn drain(&mut self) -> Vec<AlignedSet> {
         let mut out = Vec::new();
-        loop {
-            let Some(k) = self.next.or_else(|| self.start_index()) else {
-                break;
-            };
+        while let Some(k) = self.next.or_else(|| self.start_index()) {
             self.next = Some(k);
             if !self.ready(k) {
                 break;
@@ -464,22 +461,44 @@ impl SyncBuffer {
             return true;
         }
         self.sensors.values().all(|s| match self.params.policy {
-            Policy::Interpolate => {
-                let need = match self.params.interpolation {
-                    Interpolation::Linear => 1,
-                    Interpolation::CubicHermite => 2,
-                };
-                s.frames
-                    .iter()
-                    .rev()
-                    .take_while(|f| f.server_stamp_nanos >= stamp)
-                    .count()
-                    >= need
-            }
+            Policy::Interpolate => self.resample_is_final(s, stamp),
             Policy::Slots => s
                 .newest_stamp
                 .is_some_and(|t| t >= self.slot_end(k, s.slot)),
         })
+    }
+
+    /// Whether frames still to come (in capture order) could change this sensor's resampling at
+    /// `t`: every joint seen near `t` needs its samples after `t` (one for linear, two for cubic
+    /// Hermite), unless the newest frame is already so far past its last sample that a later one
+    /// would exceed the gap limit.
+    fn resample_is_final(&self, s: &SensorState, t: i64) -> bool {
+        let need = match self.params.interpolation {
+            Interpolation::Linear => 1,
+            Interpolation::CubicHermite => 2,
+        };
+        let Some(newest) = s.newest_stamp.filter(|&n| n >= t) else {
+            return false;
+        };
+        let gap = self.params.max_gap_nanos;
+        let near_from = t.saturating_sub(gap);
+        let mut last_seen: BTreeMap<Joint, (i64, usize)> = BTreeMap::new();
+        for f in s
+            .frames
+            .iter()
+            .filter(|f| f.server_stamp_nanos >= near_from)
+        {
+            for sample in usable(&f.frame) {
+                let entry = last_seen.entry(sample.joint).or_insert((i64::MIN, 0));
+                entry.0 = entry.0.max(f.server_stamp_nanos);
+                if f.server_stamp_nanos >= t {
+                    entry.1 += 1;
+                }
+            }
+        }
+        last_seen
+            .values()
+            .all(|&(last, after)| after >= need || newest.saturating_sub(last) > gap)
     }
 
     fn prune(&mut self, next: i64) {
