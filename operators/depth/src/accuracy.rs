@@ -328,7 +328,11 @@ pub fn accuracy(
         target_tilt_deg: plane.tilt_deg(),
         pixels_on_target: on_target,
         depth_mm: depth.summary(),
-        accuracy_mm: if bias_n > 0 { bias_sum / bias_n as f64 } else { f64::NAN },
+        accuracy_mm: if bias_n > 0 {
+            bias_sum / bias_n as f64
+        } else {
+            f64::NAN
+        },
         error_mm: error.summary(),
         temporal_sd_mm: (sd_n > 0).then(|| sd_sum / sd_n as f64),
         zones_in_cone: ZoneShares::from_counts(cone_counts),

@@ -123,8 +123,10 @@ impl EntropyAccumulator {
 
 /// Eq. 3.3 for every pixel of one window of `frames` difference frames (frame-major).
 fn window_entropy(diffs: &[i16], frames: usize) -> Vec<Option<f32>> {
-    // log2 of counts up to 255 by table; H = log2 n − (1/n)·Σ_occurrences log2 c(j).
-    let log2: Vec<f32> = (0..256).map(|c| if c == 0 { 0.0 } else { (c as f32).log2() }).collect();
+    // log2 of counts up to 255 by table; H = (1/n)·Σ_occurrences (log2 n − log2 c(j)).
+    let log2: Vec<f32> = (0..256)
+        .map(|c| if c == 0 { 0.0 } else { (c as f32).log2() })
+        .collect();
     let mut hist = [0u8; 256];
     let mut out = vec![None; PIXELS];
     let mut slow = Vec::new();
@@ -145,14 +147,16 @@ fn window_entropy(diffs: &[i16], frames: usize) -> Vec<Option<f32>> {
             for &d in &column {
                 hist[(d + 128) as usize] += 1;
             }
+            // Σ (log2 n − log2 c) is exactly 0 for a constant pixel.
+            let log2_n = (n as f32).log2();
             let mut s = 0.0f32;
             for &d in &column {
-                s += log2[usize::from(hist[(d + 128) as usize])];
+                s += log2_n - log2[usize::from(hist[(d + 128) as usize])];
             }
             for &d in &column {
                 hist[(d + 128) as usize] = 0;
             }
-            (n as f32).log2() - s / n as f32
+            s / n as f32
         } else {
             slow.clear();
             slow.extend_from_slice(&column);

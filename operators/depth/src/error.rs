@@ -121,7 +121,9 @@ pub enum Error {
         expected: &'static str,
     },
     /// The number of depth frames does not match the number of calibrated sensors.
-    #[error("{frames} depth frames for {sensors} calibrated sensors; frame i belongs to sensors[i]")]
+    #[error(
+        "{frames} depth frames for {sensors} calibrated sensors; frame i belongs to sensors[i]"
+    )]
     SensorCountMismatch {
         /// Frames given.
         frames: usize,

@@ -268,7 +268,10 @@ mod tests {
         for &(x, y) in &[(0.0, 0.0), (0.3, -0.2), (-0.69, 0.57), (0.7, 0.58)] {
             let (xd, yd) = k.distort(x, y);
             let (xu, yu) = k.undistort(xd, yd);
-            assert!((xu - x).abs() < 1e-9 && (yu - y).abs() < 1e-9, "{x},{y} -> {xu},{yu}");
+            assert!(
+                (xu - x).abs() < 1e-9 && (yu - y).abs() < 1e-9,
+                "{x},{y} -> {xu},{yu}"
+            );
         }
     }
 
@@ -281,7 +284,12 @@ mod tests {
         assert!((2.0 * edge_x.atan().to_degrees() - 70.0).abs() < 0.5);
         assert!(in_elliptical_cone(0.0, 0.0, 70.0, 60.0));
         assert!(!in_elliptical_cone(edge_x, 212.0 / k.fy, 70.0, 60.0));
-        assert!(in_elliptical_cone(0.95 * 35f64.to_radians().tan(), 0.0, 70.0, 60.0));
+        assert!(in_elliptical_cone(
+            0.95 * 35f64.to_radians().tan(),
+            0.0,
+            70.0,
+            60.0
+        ));
     }
 
     /// Constructors reject buffers of the wrong size instead of panicking later.

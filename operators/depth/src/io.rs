@@ -10,7 +10,10 @@ use std::path::{Path, PathBuf};
 use crate::frame::{DepthFrame, HEIGHT, Mask, PIXELS, WIDTH};
 use crate::{Error, Result};
 
-fn open_png(path: &Path, transformations: png::Transformations) -> Result<png::Reader<BufReader<File>>> {
+fn open_png(
+    path: &Path,
+    transformations: png::Transformations,
+) -> Result<png::Reader<BufReader<File>>> {
     let file = File::open(path).map_err(|source| Error::Io {
         path: path.to_owned(),
         source,
@@ -35,11 +38,13 @@ fn check_size(path: &Path, info: &png::Info<'_>) -> Result<()> {
 }
 
 fn read_pixels(path: &Path, reader: &mut png::Reader<BufReader<File>>) -> Result<Vec<u8>> {
-    let size = reader.output_buffer_size().ok_or_else(|| Error::WrongSize {
-        what: path.display().to_string(),
-        width: reader.info().width as usize,
-        height: reader.info().height as usize,
-    })?;
+    let size = reader
+        .output_buffer_size()
+        .ok_or_else(|| Error::WrongSize {
+            what: path.display().to_string(),
+            width: reader.info().width as usize,
+            height: reader.info().height as usize,
+        })?;
     let mut buf = vec![0; size];
     let out = reader
         .next_frame(&mut buf)
@@ -93,7 +98,11 @@ pub fn read_mask_png(path: &Path) -> Result<Mask> {
     check_size(path, reader.info())?;
     let (color, depth) = reader.output_color_type();
     let bytes = read_pixels(path, &mut reader)?;
-    let bytes_per_sample = if depth == png::BitDepth::Sixteen { 2 } else { 1 };
+    let bytes_per_sample = if depth == png::BitDepth::Sixteen {
+        2
+    } else {
+        1
+    };
     let channels = color.samples();
     let colour_channels = match color {
         png::ColorType::GrayscaleAlpha | png::ColorType::Rgba => channels - 1,
@@ -108,7 +117,11 @@ pub fn read_mask_png(path: &Path) -> Result<Mask> {
     }
     let inside: Vec<bool> = bytes
         .chunks_exact(stride)
-        .map(|px| px[..colour_channels * bytes_per_sample].iter().any(|&b| b != 0))
+        .map(|px| {
+            px[..colour_channels * bytes_per_sample]
+                .iter()
+                .any(|&b| b != 0)
+        })
         .collect();
     let mask = Mask::from_bools(inside)?;
     if mask.count() == 0 {
@@ -147,7 +160,14 @@ pub fn list_pngs(dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-fn write_png(path: &Path, width: usize, height: usize, color: png::ColorType, depth: png::BitDepth, data: &[u8]) -> Result<()> {
+fn write_png(
+    path: &Path,
+    width: usize,
+    height: usize,
+    color: png::ColorType,
+    depth: png::BitDepth,
+    data: &[u8],
+) -> Result<()> {
     let enc_err = |source| Error::PngEncode {
         path: path.to_owned(),
         source,
@@ -180,7 +200,14 @@ fn write_png(path: &Path, width: usize, height: usize, color: png::ColorType, de
 /// The file cannot be created or written.
 pub fn write_depth_png(path: &Path, frame: &DepthFrame) -> Result<()> {
     let bytes: Vec<u8> = frame.as_mm().iter().flat_map(|z| z.to_be_bytes()).collect();
-    write_png(path, WIDTH, HEIGHT, png::ColorType::Grayscale, png::BitDepth::Sixteen, &bytes)
+    write_png(
+        path,
+        WIDTH,
+        HEIGHT,
+        png::ColorType::Grayscale,
+        png::BitDepth::Sixteen,
+        &bytes,
+    )
 }
 
 /// Writes an 8-bit RGB image (`rgb.len() == 3·width·height`).
@@ -194,7 +221,14 @@ pub fn write_rgb_png(path: &Path, width: usize, height: usize, rgb: &[u8]) -> Re
             expected: width * height,
         });
     }
-    write_png(path, width, height, png::ColorType::Rgb, png::BitDepth::Eight, rgb)
+    write_png(
+        path,
+        width,
+        height,
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+        rgb,
+    )
 }
 
 /// Writes an 8-bit grayscale image (`gray.len() == width·height`), e.g. a mask.
@@ -208,5 +242,12 @@ pub fn write_gray8_png(path: &Path, width: usize, height: usize, gray: &[u8]) ->
             expected: width * height,
         });
     }
-    write_png(path, width, height, png::ColorType::Grayscale, png::BitDepth::Eight, gray)
+    write_png(
+        path,
+        width,
+        height,
+        png::ColorType::Grayscale,
+        png::BitDepth::Eight,
+        gray,
+    )
 }

@@ -99,16 +99,24 @@ pub fn read_panoptic_calibration(path: &Path) -> Result<Vec<PanopticSensor>> {
                 .ok_or_else(|| bad(i, key, expected))
         };
         let k = get("K_depth", 9, "a 3x3 matrix")?;
-        let dist = get("distCoeffs_depth", 5, "at least 5 coefficients k1 k2 p1 p2 k3")?;
+        let dist = get(
+            "distCoeffs_depth",
+            5,
+            "at least 5 coefficients k1 k2 p1 p2 k3",
+        )?;
         let m_depth = get("M_depth", 16, "a 4x4 matrix")?;
         let m_w2s = get("M_world2sensor", 16, "a 4x4 matrix")?;
         let dome = get("domeCenter", 3, "a 3-vector")?;
         let m_depth = Matrix4::from_row_slice(&m_depth[..16]);
         let m_w2s = Matrix4::from_row_slice(&m_w2s[..16]);
         let depth_from_world = m_depth * m_w2s;
-        let world_from_depth = depth_from_world
-            .try_inverse()
-            .ok_or_else(|| bad(i, "M_depth", "an invertible transform (with M_world2sensor)"))?;
+        let world_from_depth = depth_from_world.try_inverse().ok_or_else(|| {
+            bad(
+                i,
+                "M_depth",
+                "an invertible transform (with M_world2sensor)",
+            )
+        })?;
         if k[0] <= 0.0 || k[4] <= 0.0 {
             return Err(bad(i, "K_depth", "positive focal lengths"));
         }
@@ -131,7 +139,11 @@ pub fn read_panoptic_calibration(path: &Path) -> Result<Vec<PanopticSensor>> {
 
 /// World points of every `stride`-th pixel (in both directions) with data.
 #[must_use]
-pub fn back_project(frame: &DepthFrame, sensor: &PanopticSensor, stride: usize) -> Vec<Point3<f64>> {
+pub fn back_project(
+    frame: &DepthFrame,
+    sensor: &PanopticSensor,
+    stride: usize,
+) -> Vec<Point3<f64>> {
     let stride = stride.max(1);
     let k = &sensor.intrinsics;
     let z = frame.as_mm();
@@ -143,7 +155,11 @@ pub fn back_project(frame: &DepthFrame, sensor: &PanopticSensor, stride: usize) 
         }
         let d = f64::from(z[i]) / 1000.0;
         let (x, y) = k.undistort((u as f64 - k.cx) / k.fx, (v as f64 - k.cy) / k.fy);
-        out.push(sensor.world_from_depth.transform_point(&Point3::new(x * d, y * d, d)));
+        out.push(
+            sensor
+                .world_from_depth
+                .transform_point(&Point3::new(x * d, y * d, d)),
+        );
     }
     out
 }
@@ -239,7 +255,8 @@ pub fn floor_check(
         })?);
         up += s.up_in_world();
     }
-    let dome = Point3::from(domes.iter().map(|p| p.coords).sum::<Vector3<f64>>() / domes.len() as f64);
+    let dome =
+        Point3::from(domes.iter().map(|p| p.coords).sum::<Vector3<f64>>() / domes.len() as f64);
     let dome_disagreement = domes.iter().map(|p| (p - dome).norm()).fold(0.0, f64::max);
     let up = up.try_normalize(1e-9).unwrap_or_else(Vector3::y);
     let mut floors = Vec::with_capacity(sensors.len());

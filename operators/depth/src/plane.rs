@@ -37,7 +37,10 @@ impl ImagePlane {
     pub fn tilt_deg(&self) -> f64 {
         // Plane n·p = 1 with n = (a, b, c) in the camera frame.
         let n = Vector3::new(self.a, self.b, self.c);
-        (self.c.abs() / n.norm()).clamp(-1.0, 1.0).acos().to_degrees()
+        (self.c.abs() / n.norm())
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees()
     }
 }
 
@@ -335,7 +338,11 @@ pub fn fit_plane_ransac(points: &[Point3<f64>], params: &RansacParams) -> Result
     Ok(PlaneFit3 {
         plane,
         inliers: n,
-        rms_m: if n > 0 { (ss / n as f64).sqrt() } else { f64::NAN },
+        rms_m: if n > 0 {
+            (ss / n as f64).sqrt()
+        } else {
+            f64::NAN
+        },
     })
 }
 
@@ -354,7 +361,11 @@ mod tests {
             let x = rng.random_range(-2.0..2.0);
             let z = rng.random_range(0.0..4.0);
             let y = (d - n.x * x - n.z * z) / n.y;
-            let off = if i % 10 < 3 { rng.random_range(0.1..1.5) } else { 0.0 };
+            let off = if i % 10 < 3 {
+                rng.random_range(0.1..1.5)
+            } else {
+                0.0
+            };
             pts.push(Point3::new(x, y + off, z));
         }
         let params = RansacParams {

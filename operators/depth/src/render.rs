@@ -7,11 +7,11 @@
 
 use std::path::Path;
 
+use crate::Result;
 use crate::accuracy::{AccuracyMap, AccuracyParams, Zone};
 use crate::edge::EdgeClass;
 use crate::frame::{HEIGHT, PIXELS, WIDTH};
 use crate::io::write_rgb_png;
-use crate::Result;
 use crate::sequence::{MetricsParams, SequenceMaps};
 
 /// Height of the legend strip below each map, pixels.
@@ -35,7 +35,12 @@ impl Image {
         Self {
             width,
             height,
-            rgb: fill.iter().copied().cycle().take(3 * width * height).collect(),
+            rgb: fill
+                .iter()
+                .copied()
+                .cycle()
+                .take(3 * width * height)
+                .collect(),
         }
     }
 
@@ -187,13 +192,21 @@ const OFF_TARGET: [u8; 3] = [70, 70, 70];
 
 fn lerp(a: [u8; 3], b: [u8; 3], t: f64) -> [u8; 3] {
     let t = t.clamp(0.0, 1.0);
-    std::array::from_fn(|k| (f64::from(a[k]) + (f64::from(b[k]) - f64::from(a[k])) * t).round() as u8)
+    std::array::from_fn(|k| {
+        (f64::from(a[k]) + (f64::from(b[k]) - f64::from(a[k])) * t).round() as u8
+    })
 }
 
 /// Viridis, approximated by five anchors (perceptually ordered dark blue → yellow).
 #[must_use]
 pub fn viridis(t: f64) -> [u8; 3] {
-    const ANCHORS: [[u8; 3]; 5] = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
+    const ANCHORS: [[u8; 3]; 5] = [
+        [68, 1, 84],
+        [59, 82, 139],
+        [33, 145, 140],
+        [94, 201, 98],
+        [253, 231, 37],
+    ];
     let t = t.clamp(0.0, 1.0) * 4.0;
     let i = (t.floor() as usize).min(3);
     lerp(ANCHORS[i], ANCHORS[i + 1], t - i as f64)
@@ -237,7 +250,11 @@ fn bar(img: &mut Image, map: impl Fn(f64) -> [u8; 3], left: &str, right: &str, u
 }
 
 fn fmt_value(v: f64) -> String {
-    if v.abs() >= 10.0 { format!("{v:.0}") } else { format!("{v:.1}") }
+    if v.abs() >= 10.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.1}")
+    }
 }
 
 /// Accuracy zones (§5.1.1): green/yellow/red per pixel on the target, dimmed outside the
@@ -252,37 +269,73 @@ pub fn render_accuracy(map: &AccuracyMap, params: &AccuracyParams) -> (Image, Ma
             Some(Zone::Red) => RED,
             None => OFF_TARGET,
         };
-        let c = if map.in_cone[i] { c } else { lerp(NO_DATA, c, 0.45) };
+        let c = if map.in_cone[i] {
+            c
+        } else {
+            lerp(NO_DATA, c, 0.45)
+        };
         img.set(i % WIDTH, i / WIDTH, c);
     }
     for i in 0..PIXELS {
         let (x, y) = (i % WIDTH, i / WIDTH);
         let edge = map.in_cone[i]
-            && [(-1, 0), (1, 0), (0, -1), (0, 1)].iter().any(|&(dx, dy): &(isize, isize)| {
-                let (nx, ny) = (x as isize + dx, y as isize + dy);
-                nx >= 0
-                    && ny >= 0
-                    && (nx as usize) < WIDTH
-                    && (ny as usize) < HEIGHT
-                    && !map.in_cone[ny as usize * WIDTH + nx as usize]
-            });
+            && [(-1, 0), (1, 0), (0, -1), (0, 1)]
+                .iter()
+                .any(|&(dx, dy): &(isize, isize)| {
+                    let (nx, ny) = (x as isize + dx, y as isize + dy);
+                    nx >= 0
+                        && ny >= 0
+                        && (nx as usize) < WIDTH
+                        && (ny as usize) < HEIGHT
+                        && !map.in_cone[ny as usize * WIDTH + nx as usize]
+                });
         if edge {
             img.set(x, y, WHITE);
         }
     }
     let g = format!("<{}", fmt_value(params.green_below_mm));
-    let yl = format!("{}-{}", fmt_value(params.green_below_mm), fmt_value(params.yellow_below_mm));
+    let yl = format!(
+        "{}-{}",
+        fmt_value(params.green_below_mm),
+        fmt_value(params.yellow_below_mm)
+    );
     let r = format!(">{} MM", fmt_value(params.yellow_below_mm));
-    swatches(&mut img, &[(&GREEN, &g), (&YELLOW, &yl), (&RED, &r), (&OFF_TARGET, "OFF")]);
+    swatches(
+        &mut img,
+        &[
+            (&GREEN, &g),
+            (&YELLOW, &yl),
+            (&RED, &r),
+            (&OFF_TARGET, "OFF"),
+        ],
+    );
     let legend = MapLegend {
         name: "accuracy_zones",
         shows: "per-pixel |mean depth - true depth| zone (thesis 5.1.1); white outline = 70x60 deg elliptical cone, darker outside it",
         entries: vec![
-            LegendEntry { rgb: GREEN, meaning: format!("green: error < {} mm", params.green_below_mm) },
-            LegendEntry { rgb: YELLOW, meaning: format!("yellow: {}-{} mm", params.green_below_mm, params.yellow_below_mm) },
-            LegendEntry { rgb: RED, meaning: format!("red: error > {} mm", params.yellow_below_mm) },
-            LegendEntry { rgb: OFF_TARGET, meaning: "not on the target plane or no data".into() },
-            LegendEntry { rgb: WHITE, meaning: "outline of the elliptical cone".into() },
+            LegendEntry {
+                rgb: GREEN,
+                meaning: format!("green: error < {} mm", params.green_below_mm),
+            },
+            LegendEntry {
+                rgb: YELLOW,
+                meaning: format!(
+                    "yellow: {}-{} mm",
+                    params.green_below_mm, params.yellow_below_mm
+                ),
+            },
+            LegendEntry {
+                rgb: RED,
+                meaning: format!("red: error > {} mm", params.yellow_below_mm),
+            },
+            LegendEntry {
+                rgb: OFF_TARGET,
+                meaning: "not on the target plane or no data".into(),
+            },
+            LegendEntry {
+                rgb: WHITE,
+                meaning: "outline of the elliptical cone".into(),
+            },
         ],
         scale: None,
         legend_strip: "bottom 30 px: swatches green, yellow, red, off-target with their limits in mm",
@@ -315,8 +368,16 @@ pub fn render_entropy(entropy: &[Option<f32>]) -> (Image, MapLegend) {
     let legend = MapLegend {
         name: "entropy",
         shows: "per-pixel entropy of frame-to-frame depth differences, eq. 3.3",
-        entries: vec![LegendEntry { rgb: NO_DATA, meaning: "no valid frame pair".into() }],
-        scale: Some(ColourScale { colormap: "viridis", min: 0.0, max, unit: "bits" }),
+        entries: vec![LegendEntry {
+            rgb: NO_DATA,
+            meaning: "no valid frame pair".into(),
+        }],
+        scale: Some(ColourScale {
+            colormap: "viridis",
+            min: 0.0,
+            max,
+            unit: "bits",
+        }),
         legend_strip: "bottom 30 px: colour bar from min (left) to max (right)",
     };
     (img, legend)
@@ -350,16 +411,39 @@ pub fn render_edge(classes: &[EdgeClass], depth_mm: &[u16]) -> (Image, MapLegend
         };
         img.set(i % WIDTH, i / WIDTH, c);
     }
-    swatches(&mut img, &[(&RIM, "RIM"), (&BAND, "ZERO"), (&FLYING, "FLY"), (&BG_EDGE, "BG")]);
+    swatches(
+        &mut img,
+        &[
+            (&RIM, "RIM"),
+            (&BAND, "ZERO"),
+            (&FLYING, "FLY"),
+            (&BG_EDGE, "BG"),
+        ],
+    );
     let legend = MapLegend {
         name: "edge_band",
         shows: "edge noise (thesis 3.4): depth in grey 0.5 m (bright) to 4.5 m (dark), black = no data",
         entries: vec![
-            LegendEntry { rgb: RIM, meaning: "object rim pixel".into() },
-            LegendEntry { rgb: BAND, meaning: "no-data pixel on the band between rim and background".into() },
-            LegendEntry { rgb: FLYING, meaning: "flying pixel (between a nearer and a farther surface)".into() },
-            LegendEntry { rgb: BG_EDGE, meaning: "background pixel nearest to a rim pixel".into() },
-            LegendEntry { rgb: NO_DATA, meaning: "no data elsewhere".into() },
+            LegendEntry {
+                rgb: RIM,
+                meaning: "object rim pixel".into(),
+            },
+            LegendEntry {
+                rgb: BAND,
+                meaning: "no-data pixel on the band between rim and background".into(),
+            },
+            LegendEntry {
+                rgb: FLYING,
+                meaning: "flying pixel (between a nearer and a farther surface)".into(),
+            },
+            LegendEntry {
+                rgb: BG_EDGE,
+                meaning: "background pixel nearest to a rim pixel".into(),
+            },
+            LegendEntry {
+                rgb: NO_DATA,
+                meaning: "no data elsewhere".into(),
+            },
         ],
         scale: None,
         legend_strip: "bottom 30 px: swatches RIM, ZERO, FLY, BG",
@@ -371,7 +455,11 @@ pub fn render_edge(classes: &[EdgeClass], depth_mm: &[u16]) -> (Image, MapLegend
 /// white → red (farther), symmetric about 0 at the 99th percentile of |residual|.
 #[must_use]
 pub fn render_residual(residual_mm: &[f32]) -> (Image, MapLegend) {
-    let values: Vec<f64> = residual_mm.iter().filter(|v| v.is_finite()).map(|&v| f64::from(v).abs()).collect();
+    let values: Vec<f64> = residual_mm
+        .iter()
+        .filter(|v| v.is_finite())
+        .map(|&v| f64::from(v).abs())
+        .collect();
     let range = percentile(values, 0.99).unwrap_or(1.0).max(0.5);
     let range = (range * 10.0).ceil() / 10.0;
     let mut img = canvas();
@@ -380,12 +468,26 @@ pub fn render_residual(residual_mm: &[f32]) -> (Image, MapLegend) {
             img.set(i % WIDTH, i / WIDTH, diverging(f64::from(r) / range));
         }
     }
-    bar(&mut img, |t| diverging(2.0 * t - 1.0), &format!("-{}", fmt_value(range)), &format!("+{}", fmt_value(range)), "MM");
+    bar(
+        &mut img,
+        |t| diverging(2.0 * t - 1.0),
+        &format!("-{}", fmt_value(range)),
+        &format!("+{}", fmt_value(range)),
+        "MM",
+    );
     let legend = MapLegend {
         name: "structural_residual",
         shows: "structural noise (thesis 3.5): mean depth minus fitted plane; black = off the plane or no data",
-        entries: vec![LegendEntry { rgb: NO_DATA, meaning: "off the plane or no data".into() }],
-        scale: Some(ColourScale { colormap: "blue-white-red", min: -range, max: range, unit: "mm" }),
+        entries: vec![LegendEntry {
+            rgb: NO_DATA,
+            meaning: "off the plane or no data".into(),
+        }],
+        scale: Some(ColourScale {
+            colormap: "blue-white-red",
+            min: -range,
+            max: range,
+            unit: "mm",
+        }),
         legend_strip: "bottom 30 px: colour bar from min (left, blue) through 0 (white) to max (right, red)",
     };
     (img, legend)
@@ -397,15 +499,27 @@ pub fn render_depth(mean_mm: &[f32]) -> (Image, MapLegend) {
     let mut img = canvas();
     for (i, &z) in mean_mm.iter().enumerate().take(PIXELS) {
         if z.is_finite() && z > 0.0 {
-            img.set(i % WIDTH, i / WIDTH, viridis((f64::from(z) - 500.0) / 4000.0));
+            img.set(
+                i % WIDTH,
+                i / WIDTH,
+                viridis((f64::from(z) - 500.0) / 4000.0),
+            );
         }
     }
     bar(&mut img, viridis, "0.5", "4.5", "M");
     let legend = MapLegend {
         name: "depth",
         shows: "mean depth over the frames",
-        entries: vec![LegendEntry { rgb: NO_DATA, meaning: "no data".into() }],
-        scale: Some(ColourScale { colormap: "viridis", min: 0.5, max: 4.5, unit: "m" }),
+        entries: vec![LegendEntry {
+            rgb: NO_DATA,
+            meaning: "no data".into(),
+        }],
+        scale: Some(ColourScale {
+            colormap: "viridis",
+            min: 0.5,
+            max: 4.5,
+            unit: "m",
+        }),
         legend_strip: "bottom 30 px: colour bar from min (left) to max (right)",
     };
     (img, legend)

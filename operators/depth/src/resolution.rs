@@ -136,7 +136,11 @@ impl ResolutionAccumulator {
             from_m,
             to_m,
             pairs,
-            min_nonzero_step_mm: hist.iter().skip(1).position(|&c| c > 0).and_then(|s| to_u16(s + 1)),
+            min_nonzero_step_mm: hist
+                .iter()
+                .skip(1)
+                .position(|&c| c > 0)
+                .and_then(|s| to_u16(s + 1)),
             typical_min_step_mm: hist
                 .iter()
                 .skip(1)
@@ -144,7 +148,11 @@ impl ResolutionAccumulator {
                 .and_then(|s| to_u16(s + 1)),
             mean_step_mm: mean,
             sd_step_mm: (sumsq / pairs as f64 - mean * mean).max(0.0).sqrt(),
-            max_step_mm: hist.iter().rposition(|&c| c > 0).and_then(to_u16).unwrap_or(0),
+            max_step_mm: hist
+                .iter()
+                .rposition(|&c| c > 0)
+                .and_then(to_u16)
+                .unwrap_or(0),
         })
     }
 
@@ -160,7 +168,11 @@ impl ResolutionAccumulator {
                 *a += h;
             }
             let from = b as f64 * self.params.bin_width_m;
-            let to = if b + 1 == self.bins { f64::INFINITY } else { from + self.params.bin_width_m };
+            let to = if b + 1 == self.bins {
+                f64::INFINITY
+            } else {
+                from + self.params.bin_width_m
+            };
             if let Some(s) = self.bin_stats(hist, from, to) {
                 by_distance.push(s);
             }

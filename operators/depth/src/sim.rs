@@ -55,10 +55,19 @@ impl Shape {
         let z = self.distance_m();
         let (px, py) = (x * z, y * z);
         let metres = match *self {
-            Self::Disc { x_m, y_m, radius_m, .. } => radius_m - (px - x_m).hypot(py - y_m),
-            Self::Rectangle { left_m, top_m, right_m, bottom_m, .. } => {
-                (px - left_m).min(right_m - px).min(py - top_m).min(bottom_m - py)
-            }
+            Self::Disc {
+                x_m, y_m, radius_m, ..
+            } => radius_m - (px - x_m).hypot(py - y_m),
+            Self::Rectangle {
+                left_m,
+                top_m,
+                right_m,
+                bottom_m,
+                ..
+            } => (px - left_m)
+                .min(right_m - px)
+                .min(py - top_m)
+                .min(bottom_m - py),
         };
         metres / z * f
     }
@@ -215,7 +224,10 @@ impl Simulator {
     /// contour band and out-of-range depths set to 0.
     pub fn next_frame(&mut self) -> DepthFrame {
         let q = self.params.quantisation_mm;
-        let (lo, hi) = (self.params.range_m.0 * 1000.0, self.params.range_m.1 * 1000.0);
+        let (lo, hi) = (
+            self.params.range_m.0 * 1000.0,
+            self.params.range_m.1 * 1000.0,
+        );
         let mut frame = DepthFrame::zeros();
         for (i, out) in frame.as_mm_mut().iter_mut().enumerate() {
             let b = self.biased_mm[i];
@@ -308,6 +320,15 @@ mod tests {
                 assert_eq!(z, 2000, "x {x}");
             }
         }
-        assert!(Simulator::new(&scene, SimParams { quantisation_mm: 0.5, ..p }).is_err());
+        assert!(
+            Simulator::new(
+                &scene,
+                SimParams {
+                    quantisation_mm: 0.5,
+                    ..p
+                }
+            )
+            .is_err()
+        );
     }
 }

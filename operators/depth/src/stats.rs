@@ -102,7 +102,10 @@ mod tests {
             acc.push(v);
         }
         let s = acc.summary().unwrap();
-        assert_eq!((s.count, s.mean, s.sd, s.min, s.max), (8, 5.0, 2.0, 2.0, 9.0));
+        assert_eq!(
+            (s.count, s.mean, s.sd, s.min, s.max),
+            (8, 5.0, 2.0, 2.0, 9.0)
+        );
         assert!(SummaryAcc::default().summary().is_none());
     }
 }

@@ -146,7 +146,9 @@ pub fn structural_noise(
             continue;
         }
         let (x, y) = rays.at(i);
-        let Some(p) = plane.depth_m(x, y) else { continue };
+        let Some(p) = plane.depth_m(x, y) else {
+            continue;
+        };
         let e = m - p * 1000.0;
         if e.abs() > params.plane_tolerance_mm {
             continue;
@@ -179,7 +181,10 @@ pub fn structural_noise(
     let p: Vec<f64> = profile.iter().map(|b| b.residual_mm).collect();
     let w: Vec<f64> = profile.iter().map(|b| f64::from(b.pixels)).collect();
     let span = r.last().copied().unwrap_or(0.0) - r.first().copied().unwrap_or(0.0);
-    let max_period = params.max_period_px.min(span / 1.5).max(params.min_period_px);
+    let max_period = params
+        .max_period_px
+        .min(span / 1.5)
+        .max(params.min_period_px);
     let mut best: Option<RingFit> = None;
     let scan = |from: f64, to: f64, step: f64, best: &mut Option<RingFit>| {
         let mut period = from;
@@ -209,7 +214,11 @@ pub fn structural_noise(
         plane_distance_m: 1.0 / plane.c,
         plane_tilt_deg: plane.tilt_deg(),
         plane_pixels: n,
-        rms_residual_mm: if n > 0 { (ss / n as f64).sqrt() } else { f64::NAN },
+        rms_residual_mm: if n > 0 {
+            (ss / n as f64).sqrt()
+        } else {
+            f64::NAN
+        },
         ring_amplitude_mm: c[3].hypot(c[4]),
         ring_period_px: fit.period,
         centre_minus_edge_mm: -(c[1] * r_max + c[2] * r_max * r_max),
