@@ -1,0 +1,173 @@
+//! C3D files through c3dio 0.8.
+//!
+//! Two quirks of c3dio shape this module:
+//! * it reads the residual byte of float-format files as signed, so almost every residual comes out
+//!   negative and cannot mark gaps: a gap is a NaN coordinate or exactly (0, 0, 0), the value
+//!   Vicon and c3dio write for an invalid point;
+//! * it indexes and unwraps freely inside, so a garbage file could panic in it. We check the C3D
+//!   signature first and contain any panic left as [`Error::C3d`], so bad input never takes the
+//!   caller down.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::{Path, PathBuf};
+
+use c3dio::{C3d, MarkerPoint, Parameter};
+use nalgebra::Point3;
+use trigait_skeleton::MotionClip;
+
+use crate::trc::metres_per_unit;
+use crate::{Error, MarkerSet, Result};
+
+fn c3d_error(path: &Path, reason: impl Into<String>) -> Error {
+    Error::C3d {
+        path: path.to_path_buf(),
+        reason: reason.into(),
+    }
+}
+
+/// Reads the 3-D points of a C3D file into a [`MarkerSet`] in metres.
+///
+/// C3D is already Z up in the files we use (CMU, Vicon), so axes are kept; `POINT:UNITS` gives
+/// the length unit. Frames are indexed from 0 whatever the file's `first_frame`. A point that is
+/// NaN or exactly (0, 0, 0) is a gap.
+///
+/// # Errors
+/// [`Error::Io`] if the file cannot be read, [`Error::C3d`] if it is not a C3D file or c3dio
+/// rejects it, [`Error::UnknownUnits`] for a `POINT:UNITS` other than mm, cm or m.
+pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    // Header word 1: parameter block number (≥ 2) and the key byte 0x50.
+    if bytes.len() < 1024 || bytes[1] != 0x50 || bytes[0] < 2 {
+        return Err(c3d_error(
+            path,
+            "missing the C3D signature (0x50 in byte 2)",
+        ));
+    }
+    let c3d = catch_unwind(AssertUnwindSafe(|| {
+        C3d::from_bytes(&bytes).map_err(|e| format!("{e:?}"))
+    }))
+    .map_err(|_| c3d_error(path, "c3dio panicked on malformed content"))?
+    .map_err(|reason| c3d_error(path, reason))?;
+    let points = &c3d.points;
+    let units: String = points.units.iter().collect::<String>().trim().to_string();
+    let scale = metres_per_unit(&units).ok_or_else(|| Error::UnknownUnits {
+        path: path.to_path_buf(),
+        units: units.clone(),
+    })?;
+    let rate_hz = f64::from(points.frame_rate);
+    let (rows, cols) = (points.rows(), points.cols());
+    if points.labels.len() < cols {
+        return Err(c3d_error(
+            path,
+            format!("{cols} points but only {} labels", points.labels.len()),
+        ));
+    }
+    let labels: Vec<String> = points.labels[..cols]
+        .iter()
+        .map(|l| l.trim().to_string())
+        .collect();
+    let frames = (0..rows)
+        .map(|f| {
+            (0..cols)
+                .map(|m| {
+                    let p = points[f][m].point;
+                    let gap = p.iter().any(|c| !c.is_finite()) || p == [0.0; 3];
+                    (!gap).then(|| {
+                        Point3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) * scale
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    MarkerSet::new(name, rate_hz, labels, frames)
+}
+
+/// Writes `clip` as a float-format C3D file with c3dio: one point per joint (labelled by its
+/// snake_case name), millimetres, Z up as our world, `POINT:RATE` and `POINT:SCALE` set for
+/// readers that need them. A gap is written as (0, 0, 0) with residual −1, the C3D convention for
+/// an invalid point.
+///
+/// # Errors
+/// [`Error::C3dWrite`] if c3dio refuses (e.g. the extension is not `.c3d`) or fails to write.
+pub fn write_c3d(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
+    let path = path.as_ref();
+    let write_error = |reason: String| Error::C3dWrite {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let frames = clip.frame_count();
+    if clip.joints().is_empty() {
+        return Err(write_error("the clip has no joints".to_string()));
+    }
+    if frames > usize::from(u16::MAX) {
+        return Err(write_error(format!(
+            "{frames} frames do not fit the 16-bit frame numbers of a C3D header"
+        )));
+    }
+    let mut c3d = C3d::new();
+    for group in [
+        "POINT",
+        "ANALOG",
+        "FORCE_PLATFORM",
+        "EVENT",
+        "EVENT_CONTEXT",
+        "MANUFACTURER",
+        "SEG",
+        "TRIAL",
+    ] {
+        c3d.parameters.insert_group(group, String::new());
+    }
+    let rate = clip.rate_hz() as f32;
+    let residual_scale = 0.1_f32;
+    c3d.parameters
+        .insert("POINT", "RATE", Parameter::float(rate));
+    c3d.parameters
+        .insert("POINT", "SCALE", Parameter::float(-residual_scale));
+    let rows: Vec<Vec<MarkerPoint>> = (0..frames)
+        .map(|f| {
+            clip.joints()
+                .iter()
+                .map(|j| match clip.position(f, *j) {
+                    Some(p) => {
+                        let mm = p.coords * 1e3;
+                        MarkerPoint::new(mm.x as f32, mm.y as f32, mm.z as f32)
+                    }
+                    None => {
+                        let mut gap = MarkerPoint::new(0.0, 0.0, 0.0);
+                        gap.residual = -residual_scale;
+                        gap
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let points = &mut c3d.points;
+    points.clear();
+    for row in rows {
+        points.push_row(row);
+    }
+    points.labels = clip.joints().iter().map(|j| j.name().to_string()).collect();
+    points.descriptions = clip
+        .joints()
+        .iter()
+        .map(|j| format!("{j} joint centre"))
+        .collect();
+    points.units = ['m', 'm', ' ', ' '];
+    points.frame_rate = rate;
+    points.scale_factor = residual_scale;
+    points.format = c3dio::DataFormat::Float;
+    points.first_frame = 1;
+    points.last_frame = frames as u16;
+    let target = PathBuf::from(path);
+    catch_unwind(AssertUnwindSafe(|| c3d.write_path(target).map(|_| ())))
+        .map_err(|_| write_error("c3dio panicked while writing".to_string()))?
+        .map_err(|e| write_error(format!("{e:?}")))
+}

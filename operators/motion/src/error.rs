@@ -1,0 +1,103 @@
+use std::path::PathBuf;
+
+use trigait_skeleton::{ClipError, Joint};
+
+/// Why motion could not be read, derived or written.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The file could not be opened, read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The extension is neither `.c3d` nor `.trc`.
+    #[error("{path}: unknown motion file extension {extension:?} (expected .c3d or .trc)")]
+    UnknownExtension {
+        /// The file.
+        path: PathBuf,
+        /// Its extension as written (empty when it has none).
+        extension: String,
+    },
+    /// c3dio refused the C3D file, or it is not a C3D file at all.
+    #[error("{path}: not a readable C3D file: {reason}")]
+    C3d {
+        /// The file.
+        path: PathBuf,
+        /// What was wrong.
+        reason: String,
+    },
+    /// A TRC line could not be parsed.
+    #[error("{path}:{line}: {reason}")]
+    Trc {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What was wrong.
+        reason: String,
+    },
+    /// The file holds fewer frames than its header announces.
+    #[error("{path}: truncated, header announces {expected} frames but the data holds {got}")]
+    Truncated {
+        /// The file.
+        path: PathBuf,
+        /// Frames the header announced.
+        expected: usize,
+        /// Complete frames found.
+        got: usize,
+    },
+    /// The length unit of the points is not one we know.
+    #[error("{path}: unknown length unit {units:?} (expected mm, cm or m)")]
+    UnknownUnits {
+        /// The file.
+        path: PathBuf,
+        /// The unit as written.
+        units: String,
+    },
+    /// A marker set whose shape is inconsistent (ragged frames, bad rate, no frames).
+    #[error("marker set {name:?}: {reason}")]
+    BadMarkerSet {
+        /// Name of the set.
+        name: String,
+        /// What was wrong.
+        reason: String,
+    },
+    /// A joint centre needs a marker the file does not have.
+    #[error("cannot place {joint}: no {role} marker (looked for {candidates})")]
+    MissingMarker {
+        /// The joint that could not be placed.
+        joint: Joint,
+        /// Which anatomical landmark was missing, e.g. `"left ASIS"`.
+        role: &'static str,
+        /// The labels that were tried.
+        candidates: String,
+    },
+    /// A walker or joint-centre parameter is out of range.
+    #[error("parameter {name} = {value}: {reason}")]
+    BadParameter {
+        /// The parameter's field name.
+        name: &'static str,
+        /// The rejected value.
+        value: f64,
+        /// The valid range or the constraint that failed.
+        reason: &'static str,
+    },
+    /// c3dio could not write the file.
+    #[error("{path}: cannot write C3D: {reason}")]
+    C3dWrite {
+        /// The file.
+        path: PathBuf,
+        /// What c3dio said.
+        reason: String,
+    },
+    /// The joint positions did not form a valid clip.
+    #[error(transparent)]
+    Clip(#[from] ClipError),
+}
+
+/// Result with the crate's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

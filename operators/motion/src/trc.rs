@@ -1,0 +1,373 @@
+//! TRC (track row column) files, the marker format OpenSim reads.
+//!
+//! c3dio writes TRC but does not read it, so the reader is ours. Layout (the OpenSim / Motion
+//! Analysis convention):
+//!
+//! ```text
+//! 1  PathFileType  4  (X/Y/Z)  <file>
+//! 2  DataRate  CameraRate  NumFrames  NumMarkers  Units  OrigDataRate ...   (keys)
+//! 3  100.0     100.0       238        41          mm     100.0 ...          (values)
+//! 4  Frame#  Time  R.Shoulder  <empty> <empty>  L.Shoulder ...
+//! 5          X1 Y1 Z1 X2 Y2 Z2 ...
+//! 6  (often blank)
+//! 7  1  0.00000  -652.630  1529.542  -94.520 ...
+//! ```
+//!
+//! Fields are tab-separated and may be padded with spaces; key and value lines need not line up
+//! column by column (the shared file pads values with empty columns), so keys and values are paired
+//! in order after dropping empty fields. An empty coordinate is a gap. TRC is Y up; our world is Z
+//! up, so (X, Y, Z)_trc ↦ (X, −Z, Y) and back.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use nalgebra::Point3;
+use trigait_skeleton::MotionClip;
+
+use crate::{Error, MarkerSet, Result};
+
+/// Metres per unit of a length unit as written in TRC or C3D headers.
+pub(crate) fn metres_per_unit(units: &str) -> Option<f64> {
+    match units.trim().to_ascii_lowercase().as_str() {
+        "mm" | "millimeters" | "millimetres" => Some(1e-3),
+        "cm" | "centimeters" | "centimetres" => Some(1e-2),
+        "m" | "meters" | "metres" => Some(1.0),
+        _ => None,
+    }
+}
+
+fn trc_error(path: &Path, line: usize, reason: impl Into<String>) -> Error {
+    Error::Trc {
+        path: path.to_path_buf(),
+        line,
+        reason: reason.into(),
+    }
+}
+
+fn non_empty_fields(line: &str) -> Vec<&str> {
+    line.split('\t')
+        .map(str::trim)
+        .filter(|f| !f.is_empty())
+        .collect()
+}
+
+/// Reads a TRC file into a [`MarkerSet`] in metres, Z up.
+///
+/// Honours the `Units` header (mm, cm or m) and `DataRate`. Empty cells and `NaN` are gaps.
+///
+/// # Errors
+/// [`Error::Io`] if the file cannot be read; [`Error::Trc`] with the line number for a malformed
+/// header or data line; [`Error::UnknownUnits`]; [`Error::Truncated`] when fewer rows than
+/// `NumFrames` are present or the last row is cut off.
+pub fn read_trc(path: impl AsRef<Path>) -> Result<MarkerSet> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let text = String::from_utf8_lossy(&bytes);
+    parse_trc(path, &text)
+}
+
+fn parse_trc(path: &Path, text: &str) -> Result<MarkerSet> {
+    let lines: Vec<&str> = text.lines().collect();
+    let line = |i: usize| lines.get(i).copied();
+
+    // Line 1: file type.
+    match line(0) {
+        Some(l) if l.trim_start().starts_with("PathFileType") => {}
+        _ => return Err(trc_error(path, 1, "expected a `PathFileType` header line")),
+    }
+
+    // Lines 2–3: header keys and values.
+    let keys = non_empty_fields(line(1).ok_or_else(|| trc_error(path, 2, "missing header keys"))?);
+    let values =
+        non_empty_fields(line(2).ok_or_else(|| trc_error(path, 3, "missing header values"))?);
+    if keys.len() != values.len() {
+        return Err(trc_error(
+            path,
+            3,
+            format!("{} header values for {} keys", values.len(), keys.len()),
+        ));
+    }
+    let header = |key: &str| {
+        keys.iter()
+            .position(|k| k.eq_ignore_ascii_case(key))
+            .map(|i| values[i])
+    };
+    let rate_hz: f64 = header("DataRate")
+        .ok_or_else(|| trc_error(path, 2, "no DataRate in the header"))?
+        .parse()
+        .map_err(|_| trc_error(path, 3, "DataRate is not a number"))?;
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        return Err(trc_error(
+            path,
+            3,
+            format!("DataRate must be positive, got {rate_hz}"),
+        ));
+    }
+    let units = header("Units").unwrap_or("mm");
+    let scale = metres_per_unit(units).ok_or_else(|| Error::UnknownUnits {
+        path: path.to_path_buf(),
+        units: units.to_string(),
+    })?;
+    let num_frames: Option<usize> = match header("NumFrames") {
+        Some(v) => Some(
+            v.parse()
+                .map_err(|_| trc_error(path, 3, format!("NumFrames {v:?} is not a count")))?,
+        ),
+        None => None,
+    };
+    let num_markers: Option<usize> = match header("NumMarkers") {
+        Some(v) => Some(
+            v.parse()
+                .map_err(|_| trc_error(path, 3, format!("NumMarkers {v:?} is not a count")))?,
+        ),
+        None => None,
+    };
+
+    // Line 4: labels, each followed by empty columns.
+    let label_fields =
+        non_empty_fields(line(3).ok_or_else(|| trc_error(path, 4, "missing marker labels"))?);
+    if label_fields.len() < 2 || !label_fields[0].eq_ignore_ascii_case("Frame#") {
+        return Err(trc_error(path, 4, "expected `Frame#  Time  <labels>`"));
+    }
+    let labels: Vec<String> = label_fields[2..].iter().map(|s| s.to_string()).collect();
+    if let Some(n) = num_markers
+        && n != labels.len()
+    {
+        return Err(trc_error(
+            path,
+            4,
+            format!(
+                "header announces {n} markers but {} labels follow",
+                labels.len()
+            ),
+        ));
+    }
+    // Line 5: X1 Y1 Z1 … (not needed beyond its presence).
+    if line(4).is_none() {
+        return Err(Error::Truncated {
+            path: path.to_path_buf(),
+            expected: num_frames.unwrap_or(1),
+            got: 0,
+        });
+    }
+
+    let ends_with_newline = text.ends_with('\n');
+    let data_lines: Vec<(usize, &str)> = lines
+        .iter()
+        .enumerate()
+        .skip(5)
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| (i + 1, *l))
+        .collect();
+    let columns = 2 + 3 * labels.len();
+    let mut frames = Vec::with_capacity(data_lines.len());
+    for (k, (line_no, l)) in data_lines.iter().enumerate() {
+        let fields: Vec<&str> = l.split('\t').map(str::trim).collect();
+        let is_last = k + 1 == data_lines.len();
+        if is_last && !ends_with_newline && fields.len() < columns {
+            // The file stops in the middle of a row.
+            return Err(Error::Truncated {
+                path: path.to_path_buf(),
+                expected: num_frames.unwrap_or(data_lines.len()),
+                got: k,
+            });
+        }
+        if fields.len() > columns && fields[columns..].iter().any(|f| !f.is_empty()) {
+            return Err(trc_error(
+                path,
+                *line_no,
+                format!(
+                    "{} fields, more than the {columns} the labels allow",
+                    fields.len()
+                ),
+            ));
+        }
+        if fields.first().is_none_or(|f| f.parse::<f64>().is_err()) {
+            return Err(trc_error(
+                path,
+                *line_no,
+                "row does not start with a frame number",
+            ));
+        }
+        let mut row = Vec::with_capacity(labels.len());
+        for (m, label) in labels.iter().enumerate() {
+            let mut xyz = [0.0; 3];
+            let mut gap = false;
+            for (a, value) in xyz.iter_mut().enumerate() {
+                let field = fields.get(2 + 3 * m + a).copied().unwrap_or("");
+                if field.is_empty() {
+                    gap = true;
+                    continue;
+                }
+                *value = field.parse::<f64>().map_err(|_| {
+                    trc_error(
+                        path,
+                        *line_no,
+                        format!(
+                            "{} of {} is not a number: {field:?}",
+                            ["X", "Y", "Z"][a],
+                            label
+                        ),
+                    )
+                })?;
+            }
+            row.push((!gap).then(|| Point3::new(xyz[0] * scale, -xyz[2] * scale, xyz[1] * scale)));
+        }
+        frames.push(row);
+    }
+    if let Some(expected) = num_frames
+        && frames.len() < expected
+    {
+        return Err(Error::Truncated {
+            path: path.to_path_buf(),
+            expected,
+            got: frames.len(),
+        });
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    MarkerSet::new(name, rate_hz, labels, frames)
+}
+
+/// Formats a rate so that whole numbers keep one decimal (`100.0`), as OpenSim writes them.
+fn rate_text(rate_hz: f64) -> String {
+    if rate_hz.fract() == 0.0 {
+        format!("{rate_hz:.1}")
+    } else {
+        format!("{rate_hz}")
+    }
+}
+
+/// The TRC text of `clip`: millimetres, Y up, one marker per joint named by [`Joint::name`].
+///
+/// [`Joint::name`]: trigait_skeleton::Joint::name
+#[must_use]
+pub(crate) fn trc_text(file_name: &str, clip: &MotionClip) -> String {
+    let joints = clip.joints();
+    let n = clip.frame_count();
+    let rate = rate_text(clip.rate_hz());
+    let mut out = String::new();
+    // Writing into a String cannot fail.
+    let _ = writeln!(out, "PathFileType\t4\t(X/Y/Z)\t{file_name}");
+    let _ = writeln!(
+        out,
+        "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames"
+    );
+    let _ = writeln!(
+        out,
+        "{rate}\t{rate}\t{n}\t{}\tmm\t{rate}\t1\t{n}",
+        joints.len()
+    );
+    out.push_str("Frame#\tTime");
+    for j in joints {
+        let _ = write!(out, "\t{}\t\t", j.name());
+    }
+    out.push('\n');
+    out.push('\t');
+    for i in 1..=joints.len() {
+        let _ = write!(out, "\tX{i}\tY{i}\tZ{i}");
+    }
+    out.push_str("\n\n");
+    for f in 0..n {
+        let _ = write!(out, "{}\t{:.5}", f + 1, f as f64 / clip.rate_hz());
+        for j in joints {
+            match clip.position(f, *j) {
+                Some(p) => {
+                    let _ = write!(
+                        out,
+                        "\t{:.5}\t{:.5}\t{:.5}",
+                        p.x * 1e3,
+                        p.z * 1e3,
+                        -p.y * 1e3
+                    );
+                }
+                None => out.push_str("\t\t\t"),
+            }
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// Writes `clip` as an OpenSim-readable TRC file: millimetres, Y up (the inverse of [`read_trc`]'s
+/// frame change), one marker per joint named by its snake_case name, gaps as empty cells.
+///
+/// # Errors
+/// [`Error::Io`] if the file cannot be written.
+pub fn write_trc(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
+    let path = path.as_ref();
+    let file_name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    std::fs::write(path, trc_text(&file_name, clip)).map_err(|source| Error::Io {
+        path: PathBuf::from(path),
+        source,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = "PathFileType\t4\t(X/Y/Z)\tx.trc\n\
+DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\n\
+ 50.0\t\t 50.0\t\t 2\t\t 2\t\t m\n\
+Frame#\tTime\tA\t\t\tB\t\t\n\
+\t\tX1\tY1\tZ1\tX2\tY2\tZ2\n\
+\n\
+1\t0.0\t1.0\t2.0\t3.0\t\t\t\n\
+2\t0.02\t1.5\t2.5\t3.5\t4\t5\t6\n";
+
+    /// Header values are paired with keys across padding columns; units and the Y-up frame are
+    /// converted; empty cells are gaps.
+    #[test]
+    fn parses_padded_header_and_gaps() {
+        let set = parse_trc(Path::new("x.trc"), GOOD).unwrap();
+        assert_eq!(set.rate_hz(), 50.0);
+        assert_eq!(set.labels(), ["A", "B"]);
+        assert_eq!(set.frame_count(), 2);
+        assert_eq!(set.position(0, "A"), Some(Point3::new(1.0, -3.0, 2.0)));
+        assert_eq!(set.position(0, "B"), None);
+        assert_eq!(set.position(1, "B"), Some(Point3::new(4.0, -6.0, 5.0)));
+        assert_eq!(set.gaps().len(), 1);
+    }
+
+    /// Missing rows, cut-off rows and non-numbers are typed errors with line numbers.
+    #[test]
+    fn malformed_is_typed() {
+        let short = GOOD.replace("2\t0.02\t1.5\t2.5\t3.5\t4\t5\t6\n", "");
+        assert!(matches!(
+            parse_trc(Path::new("x.trc"), &short),
+            Err(Error::Truncated {
+                expected: 2,
+                got: 1,
+                ..
+            })
+        ));
+        let cut = GOOD.trim_end_matches("\t5\t6\n");
+        assert!(matches!(
+            parse_trc(Path::new("x.trc"), cut),
+            Err(Error::Truncated { got: 1, .. })
+        ));
+        let bad = GOOD.replace("2.5", "two");
+        assert!(matches!(
+            parse_trc(Path::new("x.trc"), &bad),
+            Err(Error::Trc { line: 8, .. })
+        ));
+        let furlongs = GOOD.replace(" m\n", " furlong\n");
+        assert!(matches!(
+            parse_trc(Path::new("x.trc"), &furlongs),
+            Err(Error::UnknownUnits { .. })
+        ));
+        assert!(matches!(
+            parse_trc(Path::new("x.trc"), "hello\nworld\n"),
+            Err(Error::Trc { line: 1, .. })
+        ));
+    }
+}
