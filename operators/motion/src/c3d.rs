@@ -103,6 +103,13 @@ pub fn write_c3d(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
         path: path.to_path_buf(),
         reason,
     };
+    // c3dio unwraps the extension; check it here so a bare name is an error, not a panic.
+    if !path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("c3d"))
+    {
+        return Err(write_error("the file name must end in .c3d".to_string()));
+    }
     let frames = clip.frame_count();
     if clip.joints().is_empty() {
         return Err(write_error("the clip has no joints".to_string()));

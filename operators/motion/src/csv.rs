@@ -32,8 +32,9 @@ pub(crate) fn csv_text(clip: &MotionClip) -> String {
     out
 }
 
-/// Writes `clip` as CSV (see the header layout in the crate docs of [`write_csv`]'s output:
-/// `frame,time_s,<joint>_x_m,…`), metres, Z up, micrometre resolution, gaps as empty cells.
+/// Writes `clip` as CSV: a header `frame,time_s,<joint>_x_m,<joint>_y_m,<joint>_z_m,…` (joints by
+/// snake_case name), then one row per frame in metres in the world frame (Z up), micrometre
+/// resolution, a gap as three empty cells.
 ///
 /// # Errors
 /// [`Error::Io`] if the file cannot be written.
