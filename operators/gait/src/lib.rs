@@ -50,7 +50,7 @@ mod error;
 mod events;
 pub mod filter;
 mod params;
-// pub mod plot;
+pub mod plot;
 mod segment;
 mod signal;
 

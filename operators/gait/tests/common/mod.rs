@@ -4,7 +4,7 @@
 //! Each foot is planted on a footprint for the stance phase and swings to the next footprint
 //! with a trapezoidal speed profile (15 % ramps) and a 10 cm height bump, so the truth is known
 //! to the sample: heel strike = arrival on a footprint, toe off = departure.
-#![allow(dead_code)]
+#![allow(dead_code, clippy::unwrap_used)]
 
 use nalgebra::{Point3, Vector2};
 use trigait_gait::Foot;
