@@ -9,6 +9,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod depth_metrics;
+mod eval;
+
 /// Markerless 3-D gait tracking from several Kinect v2 depth sensors.
 #[derive(Debug, Parser)]
 #[command(name = "trigait", version, about, long_about = None)]
@@ -19,10 +22,18 @@ pub struct Args {
 
 // Each variant's doc comment is its one-line help in `trigait --help`.
 #[derive(Debug, Subcommand)]
-enum Command {}
+enum Command {
+    /// Score the estimators on a simulated rig against ground truth and the Cramér–Rao bound.
+    Eval(eval::Args),
+    /// Kinect v2 depth accuracy: the thesis's five depth metrics, maps, and a multi-sensor floor check.
+    DepthMetrics(depth_metrics::Args),
+}
 
 fn run(args: Args) -> eyre::Result<()> {
-    match args.command {}
+    match args.command {
+        Command::Eval(args) => eval::run(&args),
+        Command::DepthMetrics(args) => depth_metrics::run(args),
+    }
 }
 
 fn main() -> ExitCode {
