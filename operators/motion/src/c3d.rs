@@ -12,7 +12,7 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
 use c3dio::{C3d, MarkerPoint, Parameter};
-use nalgebra::Point3;
+use nalgebra::{Matrix3, Point3, Vector3};
 use trigait_skeleton::MotionClip;
 
 use crate::trc::metres_per_unit;
@@ -25,15 +25,42 @@ fn c3d_error(path: &Path, reason: impl Into<String>) -> Error {
     }
 }
 
-/// Reads the 3-D points of a C3D file into a [`MarkerSet`] in metres.
+/// The proper rotation taking a file whose vertical is `up` (its `POINT:Y_SCREEN`, e.g. `+Y`)
+/// to our Z-up world, keeping the file's X axis where it can; `None` for an unknown axis.
+fn world_from_up_axis(up: [char; 2]) -> Option<Matrix3<f64>> {
+    let m = |rows: [[f64; 3]; 3]| {
+        Matrix3::new(
+            rows[0][0], rows[0][1], rows[0][2], rows[1][0], rows[1][1], rows[1][2], rows[2][0],
+            rows[2][1], rows[2][2],
+        )
+    };
+    let sign = match up[0] {
+        '+' | ' ' => 1.0,
+        '-' => -1.0,
+        _ => return None,
+    };
+    Some(match (up[1].to_ascii_uppercase(), sign > 0.0) {
+        ('Z', true) => Matrix3::identity(),
+        ('Z', false) => m([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]),
+        // Y up (TRC, Motion Analysis): (x, y, z) ↦ (x, −z, y).
+        ('Y', true) => m([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]),
+        ('Y', false) => m([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]),
+        ('X', true) => m([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
+        ('X', false) => m([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]]),
+        _ => return None,
+    })
+}
+
+/// Reads the 3-D points of a C3D file into a [`MarkerSet`] in metres, Z up.
 ///
-/// C3D is already Z up in the files we use (CMU, Vicon), so axes are kept; `POINT:UNITS` gives
+/// `POINT:Y_SCREEN` names the file's vertical axis: a `+Z` file (CMU, Vicon, or none given) keeps
+/// its axes, a `+Y` file is turned by (x, y, z) ↦ (x, −z, y) as TRC is. `POINT:UNITS` gives
 /// the length unit. Frames are indexed from 0 whatever the file's `first_frame`. A point that is
 /// NaN or exactly (0, 0, 0) is a gap.
 ///
 /// # Errors
-/// [`Error::Io`] if the file cannot be read, [`Error::C3d`] if it is not a C3D file or c3dio
-/// rejects it, [`Error::UnknownUnits`] for a `POINT:UNITS` other than mm, cm or m.
+/// [`Error::Io`] if the file cannot be read, [`Error::C3d`] if it is not a C3D file, c3dio
+/// rejects it or its `Y_SCREEN` is not an axis, [`Error::UnknownUnits`] for a `POINT:UNITS` other than mm, cm or m.
 pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|source| Error::Io {
@@ -58,6 +85,18 @@ pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
         path: path.to_path_buf(),
         units: units.clone(),
     })?;
+    let world_from_file = match points.y_screen {
+        None => Matrix3::identity(),
+        Some(axis) => world_from_up_axis(axis).ok_or_else(|| {
+            c3d_error(
+                path,
+                format!(
+                    "unsupported POINT:Y_SCREEN {:?} (expected ±X, ±Y or ±Z)",
+                    axis.iter().collect::<String>()
+                ),
+            )
+        })?,
+    };
     let rate_hz = f64::from(points.frame_rate);
     let (rows, cols) = (points.rows(), points.cols());
     if points.labels.len() < cols {
@@ -77,7 +116,8 @@ pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
                     let p = points[f][m].point;
                     let gap = p.iter().any(|c| !c.is_finite()) || p == [0.0; 3];
                     (!gap).then(|| {
-                        Point3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) * scale
+                        let file = Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
+                        Point3::from(world_from_file * file * scale)
                     })
                 })
                 .collect()
@@ -91,8 +131,8 @@ pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
 }
 
 /// Writes `clip` as a float-format C3D file with c3dio: one point per joint (labelled by its
-/// snake_case name), millimetres, Z up as our world, `POINT:RATE` and `POINT:SCALE` set for
-/// readers that need them. A gap is written as (0, 0, 0) with residual −1, the C3D convention for
+/// snake_case name), millimetres, Z up as our world (`X_SCREEN` +X, `Y_SCREEN` +Z),
+/// `POINT:RATE` and `POINT:SCALE` set for readers that need them. A gap is written as (0, 0, 0) with residual −1, the C3D convention for
 /// an invalid point.
 ///
 /// # Errors
@@ -168,6 +208,8 @@ pub fn write_c3d(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
         .map(|j| format!("{j} joint centre"))
         .collect();
     points.units = ['m', 'm', ' ', ' '];
+    points.x_screen = Some(['+', 'X']);
+    points.y_screen = Some(['+', 'Z']);
     points.frame_rate = rate;
     points.scale_factor = residual_scale;
     points.format = c3dio::DataFormat::Float;
@@ -177,4 +219,34 @@ pub fn write_c3d(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
     catch_unwind(AssertUnwindSafe(|| c3d.write_path(target).map(|_| ())))
         .map_err(|_| write_error("c3dio panicked while writing".to_string()))?
         .map_err(|e| write_error(format!("{e:?}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each supported vertical axis is turned onto +Z by a proper rotation.
+    #[test]
+    fn up_axes_map_to_z() {
+        for (axis, up) in [
+            ('Z', Vector3::z()),
+            ('Y', Vector3::y()),
+            ('X', Vector3::x()),
+        ] {
+            for (sign, s) in [('+', 1.0), ('-', -1.0)] {
+                let r = world_from_up_axis([sign, axis]).unwrap();
+                assert!((r * (up * s) - Vector3::z()).norm() < 1e-12, "{sign}{axis}");
+                assert!((r.determinant() - 1.0).abs() < 1e-12);
+                assert!((r * r.transpose() - Matrix3::identity()).norm() < 1e-12);
+            }
+        }
+        // Y up is the TRC convention: (x, y, z) ↦ (x, −z, y).
+        let r = world_from_up_axis(['+', 'Y']).unwrap();
+        assert_eq!(
+            r * Vector3::new(1.0, 2.0, 3.0),
+            Vector3::new(1.0, -3.0, 2.0)
+        );
+        assert!(world_from_up_axis(['+', 'Q']).is_none());
+        assert!(world_from_up_axis(['*', 'Z']).is_none());
+    }
 }

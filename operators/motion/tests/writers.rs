@@ -102,6 +102,7 @@ fn c3d_round_trip() {
     assert_eq!(raw.points.rows(), clip.frame_count());
     let units: String = raw.points.units.iter().collect();
     assert_eq!(units.trim(), "mm");
+    assert_eq!(raw.points.y_screen, Some(['+', 'Z']));
     let ankle = clip.position(7, Joint::AnkleRight).unwrap() * 1e3;
     let p = raw.points[7][Joint::AnkleRight.index()].point;
     assert!((f64::from(p[0]) - ankle.x).abs() < 0.1);
