@@ -739,21 +739,24 @@ fn resample_joint(knots: &[Knot], t: i64, params: &SyncParams) -> Option<Resampl
                 .checked_sub(2)
                 .and_then(|j| knots.get(j))
                 .filter(|q| gap_ok(q, p));
-            Some(extrapolate(p, a, q, t))
+            extrapolate(p, a, q, t)
         }
         (_, Some(b)) if b.t.saturating_sub(t) <= params.max_extrapolation_nanos => {
             let n = knots.get(after + 1).filter(|n| gap_ok(b, n))?;
             let q = knots.get(after + 2).filter(|q| gap_ok(n, q));
-            Some(extrapolate(n, b, q, t))
+            extrapolate(n, b, q, t)
         }
         _ => None,
     }
 }
 
 /// Linear extrapolation from `far` through `near` to `t`; error from the second difference with
-/// `third` (the knot beyond `far`) when there is one.
-fn extrapolate(far: &Knot, near: &Knot, third: Option<&Knot>, t: i64) -> Resampled {
+/// `third` (the knot beyond `far`) when there is one. `None` if the two knots share a stamp.
+fn extrapolate(far: &Knot, near: &Knot, third: Option<&Knot>, t: i64) -> Option<Resampled> {
     let h = secs(far.t, near.t);
+    if h == 0.0 {
+        return None;
+    }
     let p = near.p + (near.p - far.p) * (secs(near.t, t) / h);
     let error = third.and_then(|q| {
         let (a, b, c) = if q.t < far.t {
@@ -764,7 +767,7 @@ fn extrapolate(far: &Knot, near: &Knot, third: Option<&Knot>, t: i64) -> Resampl
         second_derivative(a, b, c)
             .map(|acc| acc.norm() * (secs(far.t, t) * secs(near.t, t)).abs() / 2.0)
     });
-    (p, near.state.min(far.state), error, vec![*far, *near])
+    Some((p, near.state.min(far.state), error, vec![*far, *near]))
 }
 
 /// Third derivative (6 × third divided difference) through four knots in time order.

@@ -23,6 +23,37 @@
 //! camera frame (x left, y up, z out of the lens) — this crate never changes frames. [`sim`]
 //! provides clocks with offset, drift and jitter and links with asymmetric, heavy-tailed delays,
 //! deterministic from a seed, for tests and for the simulator's sensors.
+//!
+//! ```
+//! use trigait_skeleton::{Joint, JointSample, SkeletonFrame, TrackingState};
+//! use trigait_sync::{NtpSample, SyncBuffer, SyncParams};
+//!
+//! let mut sync = SyncBuffer::new(["k1", "k2"], SyncParams::default())?;
+//! // `sync` sent requests at server time 0; each sensor clock is 5 ms ahead, 0.2 ms round trip.
+//! for id in ["k1", "k2"] {
+//!     sync.push_ntp(id, NtpSample { t1: 0, t2: 5_100_000, t3: 5_100_000, t4: 200_000 })?;
+//! }
+//! let frame = |id: &str, seq: u64, local: i64| SkeletonFrame {
+//!     sensor_id: id.into(),
+//!     seq,
+//!     local_stamp_nanos: local,
+//!     joints: vec![JointSample {
+//!         joint: Joint::KneeLeft,
+//!         position_in_kinect: [0.0, 0.0, 2.0 + local as f64 * 1e-9].into(),
+//!         state: TrackingState::Tracked,
+//!     }],
+//! };
+//! let mut sets = Vec::new();
+//! for seq in 0..4 {
+//!     let local = 5_000_000 + seq as i64 * 33_333_333; // captured at server time seq/30 s
+//!     sets.extend(sync.push(frame("k1", seq, local))?);
+//!     sets.extend(sync.push(frame("k2", seq, local + 10_000_000))?);
+//! }
+//! // Fusion instants at 30 Hz on the server clock, both sensors resampled there.
+//! assert!(sets.len() >= 2);
+//! assert!(sets.iter().all(|s| s.is_complete() && s.stamp_nanos % 33_333_333 <= 1));
+//! # Ok::<(), trigait_sync::Error>(())
+//! ```
 #![warn(missing_docs)]
 
 mod buffer;
