@@ -67,7 +67,8 @@ pub struct WalkerParams {
     pub pelvis_obliquity_deg: f64,
     /// Foot angle to the floor at heel strike, toe up, degrees (≈ 20°).
     pub heel_strike_pitch_deg: f64,
-    /// Foot angle to the floor at toe-off, heel up, degrees.
+    /// Foot angle to the floor at toe-off, heel up, degrees. With the shank inclined ~50° at
+    /// toe-off, 65° gives the ~15° ankle plantarflexion of normal gait (Perry & Burnfield).
     pub toe_off_pitch_deg: f64,
     /// Extra lift of the swing ankle over the straight path between toe-off and heel strike,
     /// metres; sets the swing knee flexion peak (≈ 62° at 73 % of the cycle with the default 0.04).
@@ -106,7 +107,9 @@ const FOOT_FLAT_PHASE: f64 = 0.10;
 /// Heel rise: start of the forefoot rocker (Perry: terminal stance begins at 31 %).
 const HEEL_RISE_PHASE: f64 = 0.35;
 /// Smoothness of the minimum over the two legs' pelvis height limits, metres.
-const SOFTMIN_M: f64 = 0.003;
+const SOFTMIN_M: f64 = 0.01;
+/// Heel-rise pitch grows as u^1.5 over the forefoot rocker: slow at heel-off, fast into toe-off.
+const HEEL_RISE_EXPONENT: f64 = 1.5;
 
 impl WalkerParams {
     /// The default gait for a person `height_m` tall: segment lengths scaled by Winter's
@@ -128,7 +131,7 @@ impl WalkerParams {
             pelvis_rotation_deg: 4.0,
             pelvis_obliquity_deg: 4.0,
             heel_strike_pitch_deg: 20.0,
-            toe_off_pitch_deg: 55.0,
+            toe_off_pitch_deg: 65.0,
             swing_lift_m: 0.04,
             arm_swing_deg: 15.0,
             all_joints: false,
@@ -370,7 +373,7 @@ impl Model {
         } else {
             // Forefoot rocker: the heel rises with growing speed into toe-off.
             let u = (phase - HEEL_RISE_PHASE) / (self.p.stance_fraction - HEEL_RISE_PHASE);
-            (-to * u * u, self.ball)
+            (-to * u.powf(HEEL_RISE_EXPONENT), self.ball)
         };
         // The contact point stays where it is with the foot flat.
         let contact = Vector2::new(flat.x, flat.z) + pivot;

@@ -32,16 +32,32 @@ fn examples() -> Vec<WalkerParams> {
     v
 }
 
-/// Sagittal thigh angle from vertical (degrees, + = flexion) and knee flexion of one leg.
-fn leg_angles(clip: &MotionClip, f: usize, hip: Joint, knee: Joint, ankle: Joint) -> (f64, f64) {
-    let h = clip.position(f, hip).unwrap();
-    let k = clip.position(f, knee).unwrap();
-    let a = clip.position(f, ankle).unwrap();
+/// Sagittal angles of the right leg in degrees: thigh from vertical (+ = flexion), knee
+/// flexion, and ankle dorsiflexion (+) / plantarflexion (−) from the shank and the foot's pitch.
+///
+/// The foot's pitch is measured from the ankle → `Foot` vector against its direction with the
+/// foot flat on the floor (which is the first frame's, a heel strike, rotated back by the pitch
+/// the walker uses there).
+fn right_leg_angles(clip: &MotionClip, p: &WalkerParams, f: usize) -> (f64, f64, f64) {
+    let g = |j| clip.position(f, j).unwrap();
+    let (h, k, a, foot) = (
+        g(Joint::HipRight),
+        g(Joint::KneeRight),
+        g(Joint::AnkleRight),
+        g(Joint::FootRight),
+    );
     let thigh = k - h;
     let shank = a - k;
+    let sagittal = |v: Vector3<f64>| v.z.atan2(v.x).to_degrees();
+    let flat = sagittal(
+        clip.position(0, Joint::FootRight).unwrap() - clip.position(0, Joint::AnkleRight).unwrap(),
+    ) - p.heel_strike_pitch_deg;
+    let pitch = sagittal(foot - a) - flat;
+    let shank_lean = (-shank).x.atan2(-shank.z).to_degrees();
     (
         thigh.x.atan2(-thigh.z).to_degrees(),
         thigh.angle(&shank).to_degrees(),
+        shank_lean + pitch,
     )
 }
 
@@ -131,16 +147,23 @@ fn stance_foot_is_planted() {
 
 /// Hip and knee curves have the shape of normal gait (Winter 2009, Perry & Burnfield 2010):
 /// thigh +20…+40° flexion near heel strike and terminal swing, 5–20° extension in late stance;
-/// knee ~15–20° loading bump, near-straight mid-stance, ~60° swing peak near 73 % of the cycle.
+/// knee ~15–20° loading bump, near-straight mid-stance, ~60° swing peak near 73 % of the cycle;
+/// ankle plantarflexion in loading and at toe-off, dorsiflexion in late stance.
 #[test]
 fn joint_angles_look_like_normal_gait() {
     let p = WalkerParams::default();
     let c = clip(&p, 2.0 * p.cycle_secs());
     let per_cycle = (p.cycle_secs() * RATE).round() as usize;
     // Right leg over its second cycle (right heel strike at t = 0, T, 2T).
-    let (hip, knee): (Vec<f64>, Vec<f64>) = (per_cycle..2 * per_cycle)
-        .map(|f| leg_angles(&c, f, Joint::HipRight, Joint::KneeRight, Joint::AnkleRight))
-        .unzip();
+    let mut hip = Vec::new();
+    let mut knee = Vec::new();
+    let mut ankle = Vec::new();
+    for f in per_cycle..2 * per_cycle {
+        let (h, k, a) = right_leg_angles(&c, &p, f);
+        hip.push(h);
+        knee.push(k);
+        ankle.push(a);
+    }
     let at = |v: &[f64], phase: f64| v[(phase * per_cycle as f64) as usize];
     let window = |v: &[f64], a: f64, b: f64| {
         range(&v[(a * per_cycle as f64) as usize..(b * per_cycle as f64) as usize])
@@ -171,6 +194,31 @@ fn joint_angles_look_like_normal_gait() {
     );
     let to = at(&knee, p.stance_fraction);
     assert!((25.0..50.0).contains(&to), "knee at toe-off {to:.1}");
+
+    // Ankle: ~neutral at heel strike, plantarflexes in loading, dorsiflexes as the shank rolls
+    // over the foot, plantarflexes ~15° around toe-off, back near neutral in mid-swing.
+    assert!(
+        at(&ankle, 0.0).abs() < 5.0,
+        "ankle at heel strike {:.1}",
+        at(&ankle, 0.0)
+    );
+    let (loading, _) = window(&ankle, 0.0, 0.15);
+    assert!(
+        (-12.0..-3.0).contains(&loading),
+        "loading plantarflexion {loading:.1}"
+    );
+    let (_, dorsi) = window(&ankle, 0.3, 0.55);
+    assert!(
+        (5.0..20.0).contains(&dorsi),
+        "stance dorsiflexion {dorsi:.1}"
+    );
+    let (plantar, _) = window(&ankle, 0.55, 0.7);
+    assert!(
+        (-25.0..-8.0).contains(&plantar),
+        "toe-off plantarflexion {plantar:.1}"
+    );
+    let (lo, hi) = window(&ankle, 0.75, 0.85);
+    assert!(lo > -8.0 && hi < 10.0, "mid-swing ankle {lo:.1}..{hi:.1}");
 }
 
 /// The pelvis bobs 2–6 cm (twice a cycle, lowest in double support), sways toward the stance
