@@ -172,8 +172,10 @@ fn render(r: &Report) -> String {
     );
     let _ = writeln!(
         out,
-        "{} joint samples; a joint is reported by {:.2} sensors on average (tracked {:.1} %, inferred {:.1} %, not seen {:.1} %)\n",
+        "{} joint samples, {} solved by every method (the statistics below are over those);\n\
+         a joint is reported by {:.2} sensors on average (tracked {:.1} %, inferred {:.1} %, not seen {:.1} %)\n",
         r.joint_samples,
+        r.common_samples,
         v.mean_sensors_reporting,
         v.tracked_share * 100.0,
         v.inferred_share * 100.0,
@@ -183,7 +185,7 @@ fn render(r: &Report) -> String {
         out,
         "{:<15} {:>8} {:>8} {:>8} {:>8} {:>22} {:>8} {:>8} {:>12} {:>10}",
         "method",
-        "coverage",
+        "solves",
         "RMSE mm",
         "mean mm",
         "p95 mm",
@@ -204,7 +206,7 @@ fn render(r: &Report) -> String {
             out,
             "{:<15} {:>7.1}% {:>8} {:>8} {:>8} {:>22} {:>8} {:>8.2} {:>12} {:>9.0}%",
             m.method,
-            m.coverage * 100.0,
+            m.own.coverage * 100.0,
             mm(m.rmse_m),
             mm(m.mean_m),
             mm(m.p95_m),
@@ -212,7 +214,11 @@ fn render(r: &Report) -> String {
             mm(m.crb_rmse_m),
             m.rmse_over_crb,
             mm(m.best_single_sensor_rmse_m),
-            -m.gain_over_linear * 100.0
+            if m.gain_over_linear.abs() < 0.005 {
+                0.0
+            } else {
+                -m.gain_over_linear * 100.0
+            }
         );
     }
     let _ = writeln!(out, "\nRMSE per joint, mm");
@@ -229,22 +235,33 @@ fn render(r: &Report) -> String {
         }
         let _ = writeln!(out);
     }
-    let failures: Vec<String> = r
-        .methods
-        .iter()
-        .filter(|m| !m.failures.is_empty())
-        .map(|m| {
-            let reasons: Vec<String> = m.failures.iter().map(|(k, n)| format!("{n} {k}")).collect();
-            format!("{}: {}", m.method, reasons.join(", "))
-        })
-        .collect();
-    if !failures.is_empty() {
-        let _ = writeln!(out, "\nunsolved samples: {}", failures.join("; "));
+    let _ = writeln!(out, "\nEach method on every sample it solved:");
+    for m in &r.methods {
+        let unsolved: Vec<String> = m
+            .own
+            .failures
+            .iter()
+            .map(|(reason, n)| format!("{n} {reason}"))
+            .collect();
+        let _ = writeln!(
+            out,
+            "  {:<15} {:>7} solved, RMSE {:>6} mm (CRB {:>6} mm){}",
+            m.method,
+            m.own.solved,
+            mm(m.own.rmse_m),
+            mm(m.own.crb_rmse_m),
+            if unsolved.is_empty() {
+                String::new()
+            } else {
+                format!(", unsolved: {}", unsolved.join(", "))
+            }
+        );
     }
     let _ = writeln!(
         out,
-        "\nCRB: Cramér–Rao bound of the method's data model (ranges only, or full 3-D reports) on the same samples.\n\
-         best 1 sensor: the single sensor with the lowest RMSE. vs linear: RMSE change against thesis §4.2.2 on common samples."
+        "\nsolves: share of all joint samples the method solved. CRB: Cramér–Rao bound of the method's\n\
+         data model (ranges only, or full 3-D reports). best 1 sensor: the single sensor with the lowest\n\
+         RMSE. vs linear: RMSE change against thesis §4.2.2 linear trilateration."
     );
     out
 }

@@ -5,9 +5,11 @@
 //! Every sensor observes the same instant (a [`trigait_sim::Snapshot`]), so the numbers measure
 //! the estimators alone; timing effects belong to the dataflow's summary.
 //!
-//! Each method is scored on the samples it solved (range-only methods need three sensors,
-//! fusion one), and [`MethodReport::coverage`] says how many that was. Comparisons between
-//! methods ([`MethodReport::gain_over_linear`]) use only the samples both solved.
+//! Methods are compared like for like: the error statistics of every method
+//! ([`MethodReport::rmse_m`] and the rest) are computed on the *common* samples, those every
+//! evaluated method solved, so one table compares one set of joint positions. Range-only
+//! methods need three sensors and fusion only one, so fusion also solves samples the others
+//! cannot; [`MethodReport::own`] scores each method on everything it solved.
 
 #![warn(missing_docs)]
 
@@ -133,6 +135,9 @@ pub struct Report {
     pub joints: Vec<String>,
     /// Joint samples with ground truth (frames × joints × trials, minus motion gaps).
     pub joint_samples: usize,
+    /// Joint samples every evaluated method solved: the set the method statistics are
+    /// computed on.
+    pub common_samples: usize,
     /// What the sensors saw.
     pub visibility: Visibility,
     /// One entry per method.
@@ -152,17 +157,14 @@ pub struct Visibility {
     pub mean_sensors_reporting: f64,
 }
 
-/// Errors of one method. Distances are 3-D Euclidean, metres.
+/// Errors of one method. Distances are 3-D Euclidean, metres. Unless said otherwise, every
+/// figure is over the common samples ([`Report::common_samples`]).
 #[derive(Debug, Clone, Serialize)]
 pub struct MethodReport {
     /// Method name (`fusion`, `fusion+robust`, …).
     pub method: String,
-    /// Samples solved.
-    pub solved: usize,
-    /// Samples with no estimate, by reason.
-    pub failures: BTreeMap<String, usize>,
-    /// Solved share of all joint samples.
-    pub coverage: f64,
+    /// The method on every sample it solved, not only the common ones.
+    pub own: OwnScore,
     /// Root mean square error.
     pub rmse_m: f64,
     /// Mean error.
@@ -185,12 +187,26 @@ pub struct MethodReport {
     pub best_single_sensor: Option<String>,
     /// See [`MethodReport::best_single_sensor`].
     pub best_single_sensor_rmse_m: f64,
-    /// `1 − RMSE(this) / RMSE(linear)` on the samples both solved: 0.38 means 38 % below linear.
+    /// `1 − RMSE(this) / RMSE(linear)` on the common samples: 0.38 means 38 % below linear
+    /// (linear is run as a baseline even when not among the evaluated methods).
     pub gain_over_linear: f64,
-    /// Samples both this method and `linear` solved.
-    pub common_with_linear: usize,
-    /// Mean sensors dropped per solved sample (robust variants).
+    /// Mean sensors dropped per sample (robust variants).
     pub rejected_per_sample: f64,
+}
+
+/// One method on every sample it solved.
+#[derive(Debug, Clone, Serialize)]
+pub struct OwnScore {
+    /// Samples solved.
+    pub solved: usize,
+    /// Solved share of all joint samples.
+    pub coverage: f64,
+    /// Samples with no estimate, by reason.
+    pub failures: BTreeMap<String, usize>,
+    /// RMSE over the solved samples.
+    pub rmse_m: f64,
+    /// The Cramér–Rao bound as an RMSE over the solved samples.
+    pub crb_rmse_m: f64,
 }
 
 /// Per-method sums, mergeable across worker threads.
@@ -202,10 +218,11 @@ struct Tally {
     crb_trace: f64,
     failures: BTreeMap<&'static str, usize>,
     single: BTreeMap<usize, (f64, usize)>,
-    common: usize,
-    common_squared: f64,
-    common_linear_squared: f64,
+    linear_squared: f64,
     rejected: usize,
+    own_solved: usize,
+    own_squared: f64,
+    own_crb_trace: f64,
 }
 
 impl Tally {
@@ -228,10 +245,11 @@ impl Tally {
             e.0 += s;
             e.1 += n;
         }
-        self.common += other.common;
-        self.common_squared += other.common_squared;
-        self.common_linear_squared += other.common_linear_squared;
+        self.linear_squared += other.linear_squared;
         self.rejected += other.rejected;
+        self.own_solved += other.own_solved;
+        self.own_squared += other.own_squared;
+        self.own_crb_trace += other.own_crb_trace;
     }
 }
 
@@ -239,6 +257,7 @@ impl Tally {
 struct Partial {
     tallies: Vec<Tally>,
     samples: usize,
+    common: usize,
     states: [usize; 3],
     reporting: usize,
 }
@@ -249,6 +268,7 @@ impl Partial {
             a.merge(b);
         }
         self.samples += other.samples;
+        self.common += other.common;
         for i in 0..3 {
             self.states[i] += other.states[i];
         }
@@ -344,15 +364,38 @@ fn run_trial(sim: &Simulator, config: &EvalConfig, trial: usize, partial: &mut P
             let linear_error = estimate(&observations, &linear)
                 .ok()
                 .map(|e| (e.position - truth).norm_squared());
+            let mut solved = Vec::with_capacity(config.methods.len());
             for (spec, tally) in config.methods.iter().zip(&mut partial.tallies) {
-                let e = match estimate(&observations, &spec.params(&config.params)) {
-                    Ok(e) => e,
+                match estimate(&observations, &spec.params(&config.params)) {
+                    Ok(e) => {
+                        let bound = if spec.method.is_range_only() {
+                            crb::range_only(&at_truth)
+                        } else {
+                            crb::full(&at_truth)
+                        };
+                        let crb_trace = bound.map_or(f64::NAN, |b| b.trace());
+                        let error = e.position - truth;
+                        tally.own_solved += 1;
+                        tally.own_squared += error.norm_squared();
+                        tally.own_crb_trace += crb_trace;
+                        solved.push(Some((error, crb_trace, e.diagnostics.rejected.len())));
+                    }
                     Err(err) => {
                         *tally.failures.entry(failure_kind(&err)).or_default() += 1;
-                        continue;
+                        solved.push(None);
                     }
+                }
+            }
+            // Like for like: only samples every method (and the linear baseline) solved count
+            // towards the compared statistics.
+            let (Some(linear_sq), true) = (linear_error, solved.iter().all(Option::is_some)) else {
+                continue;
+            };
+            partial.common += 1;
+            for (result, tally) in solved.into_iter().zip(&mut partial.tallies) {
+                let Some((error, crb_trace, rejected)) = result else {
+                    continue;
                 };
-                let error = e.position - truth;
                 tally.errors.push(error.norm());
                 for i in 0..3 {
                     tally.squared_xyz[i] += error[i] * error[i];
@@ -360,23 +403,14 @@ fn run_trial(sim: &Simulator, config: &EvalConfig, trial: usize, partial: &mut P
                 let pj = tally.per_joint.entry(*joint).or_default();
                 pj.0 += error.norm_squared();
                 pj.1 += 1;
-                let bound = if spec.method.is_range_only() {
-                    crb::range_only(&at_truth)
-                } else {
-                    crb::full(&at_truth)
-                };
-                tally.crb_trace += bound.map_or(f64::NAN, |b| b.trace());
+                tally.crb_trace += crb_trace;
                 for (s, sq) in &single {
                     let entry = tally.single.entry(*s).or_default();
                     entry.0 += sq;
                     entry.1 += 1;
                 }
-                if let Some(linear_sq) = linear_error {
-                    tally.common += 1;
-                    tally.common_squared += error.norm_squared();
-                    tally.common_linear_squared += linear_sq;
-                }
-                tally.rejected += e.diagnostics.rejected.len();
+                tally.linear_squared += linear_sq;
+                tally.rejected += rejected;
             }
         }
     }
@@ -402,6 +436,7 @@ fn report(sim: &Simulator, rig_name: &str, config: &EvalConfig, total: Partial) 
         seed: config.seed,
         joints: sim.joints().iter().map(|j| j.name().to_owned()).collect(),
         joint_samples: samples,
+        common_samples: total.common,
         visibility: Visibility {
             tracked_share: share(total.states[TrackingState::Tracked as usize]),
             inferred_share: share(total.states[TrackingState::Inferred as usize]),
@@ -414,6 +449,16 @@ fn report(sim: &Simulator, rig_name: &str, config: &EvalConfig, total: Partial) 
 
 fn method_report(sim: &Simulator, spec: &MethodSpec, mut t: Tally, samples: usize) -> MethodReport {
     let solved = t.errors.len();
+    let own = OwnScore {
+        solved: t.own_solved,
+        coverage: t.own_solved as f64 / samples.max(1) as f64,
+        failures: std::mem::take(&mut t.failures)
+            .into_iter()
+            .map(|(k, v)| (k.to_owned(), v))
+            .collect(),
+        rmse_m: (t.own_squared / t.own_solved.max(1) as f64).sqrt(),
+        crb_rmse_m: (t.own_crb_trace / t.own_solved.max(1) as f64).sqrt(),
+    };
     let n = solved.max(1) as f64;
     let rmse = |sq: f64, count: usize| (sq / count.max(1) as f64).sqrt();
     let squared: f64 = t.errors.iter().map(|e| e * e).sum();
@@ -432,13 +477,7 @@ fn method_report(sim: &Simulator, spec: &MethodSpec, mut t: Tally, samples: usiz
         .min_by(|a, b| a.1.total_cmp(&b.1));
     MethodReport {
         method: spec.name(),
-        solved,
-        failures: t
-            .failures
-            .into_iter()
-            .map(|(k, v)| (k.to_owned(), v))
-            .collect(),
-        coverage: solved as f64 / samples.max(1) as f64,
+        own,
         rmse_m: rmse(squared, solved),
         mean_m: t.errors.iter().sum::<f64>() / n,
         p95_m: p95,
@@ -453,9 +492,7 @@ fn method_report(sim: &Simulator, spec: &MethodSpec, mut t: Tally, samples: usiz
         rmse_over_crb: rmse(squared, solved) / crb_rmse,
         best_single_sensor: best.and_then(|(s, _)| sim.sensors().get(s).map(|s| s.id.clone())),
         best_single_sensor_rmse_m: best.map_or(f64::NAN, |b| b.1),
-        gain_over_linear: 1.0
-            - (t.common_squared / t.common_linear_squared.max(f64::MIN_POSITIVE)).sqrt(),
-        common_with_linear: t.common,
+        gain_over_linear: 1.0 - (squared / t.linear_squared.max(f64::MIN_POSITIVE)).sqrt(),
         rejected_per_sample: t.rejected as f64 / n,
     }
 }
