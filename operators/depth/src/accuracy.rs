@@ -46,16 +46,33 @@ impl PixelStats {
     /// Adds one frame (zeros are skipped).
     pub fn push(&mut self, frame: &DepthFrame) {
         let z = frame.as_mm();
-        for i in 0..PIXELS {
-            let v = z[i];
-            let valid = u32::from(v != 0);
-            self.count[i] += valid;
-            self.sum[i] += u64::from(v);
-            self.sumsq[i] += u64::from(u32::from(v) * u32::from(v));
-            self.min[i] = self.min[i].min(if v == 0 { u16::MAX } else { v });
-            self.max[i] = self.max[i].max(v);
+        // Zipped slices (no indexing) so the loop vectorises.
+        let lanes = self
+            .count
+            .iter_mut()
+            .zip(self.sum.iter_mut())
+            .zip(self.sumsq.iter_mut())
+            .zip(self.min.iter_mut().zip(self.max.iter_mut()))
+            .zip(z);
+        for ((((count, sum), sumsq), (min, max)), &v) in lanes {
+            let w = u32::from(v);
+            *count += u32::from(v != 0);
+            *sum += u64::from(w);
+            *sumsq += u64::from(w * w);
+            *min = (*min).min(if v == 0 { u16::MAX } else { v });
+            *max = (*max).max(v);
         }
         self.frames += 1;
+    }
+
+    /// Forgets every frame (keeps the allocations).
+    pub fn clear(&mut self) {
+        self.count.fill(0);
+        self.sum.fill(0);
+        self.sumsq.fill(0);
+        self.min.fill(u16::MAX);
+        self.max.fill(0);
+        self.frames = 0;
     }
 
     /// Frames pushed.

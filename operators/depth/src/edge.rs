@@ -140,29 +140,46 @@ fn window_min_max(z: &[u16], r: usize) -> (Vec<u16>, Vec<u16>) {
         .collect();
     let mut hmax = z.to_vec();
     let mut hmin = lo_in.clone();
-    for row in 0..HEIGHT {
-        let s = row * WIDTH;
-        let (src_max, src_min) = (&z[s..s + WIDTH], &lo_in[s..s + WIDTH]);
-        let (dmax, dmin) = (&mut hmax[s..s + WIDTH], &mut hmin[s..s + WIDTH]);
-        for o in 1..=r {
-            for x in 0..WIDTH - o {
-                dmax[x] = dmax[x].max(src_max[x + o]);
-                dmin[x] = dmin[x].min(src_min[x + o]);
-                dmax[x + o] = dmax[x + o].max(src_max[x]);
-                dmin[x + o] = dmin[x + o].min(src_min[x]);
+    // Horizontal pass: shifted element-wise max/min over slices (vectorises).
+    for ((dmax, dmin), (smax, smin)) in hmax
+        .chunks_exact_mut(WIDTH)
+        .zip(hmin.chunks_exact_mut(WIDTH))
+        .zip(z.chunks_exact(WIDTH).zip(lo_in.chunks_exact(WIDTH)))
+    {
+        for o in 1..=r.min(WIDTH - 1) {
+            for (d, s) in dmax[..WIDTH - o].iter_mut().zip(&smax[o..]) {
+                *d = (*d).max(*s);
+            }
+            for (d, s) in dmax[o..].iter_mut().zip(&smax[..WIDTH - o]) {
+                *d = (*d).max(*s);
+            }
+            for (d, s) in dmin[..WIDTH - o].iter_mut().zip(&smin[o..]) {
+                *d = (*d).min(*s);
+            }
+            for (d, s) in dmin[o..].iter_mut().zip(&smin[..WIDTH - o]) {
+                *d = (*d).min(*s);
             }
         }
     }
+    // Vertical pass: row against shifted rows.
     let mut vmax = hmax.clone();
     let mut vmin = hmin.clone();
-    for o in 1..=r {
-        for y in 0..HEIGHT - o {
-            let (a, b) = (y * WIDTH, (y + o) * WIDTH);
-            for x in 0..WIDTH {
-                vmax[a + x] = vmax[a + x].max(hmax[b + x]);
-                vmin[a + x] = vmin[a + x].min(hmin[b + x]);
-                vmax[b + x] = vmax[b + x].max(hmax[a + x]);
-                vmin[b + x] = vmin[b + x].min(hmin[a + x]);
+    for y in 0..HEIGHT {
+        let lo = y.saturating_sub(r);
+        let hi = (y + r).min(HEIGHT - 1);
+        let (dmax, dmin) = (
+            &mut vmax[y * WIDTH..(y + 1) * WIDTH],
+            &mut vmin[y * WIDTH..(y + 1) * WIDTH],
+        );
+        for yy in lo..=hi {
+            if yy == y {
+                continue;
+            }
+            for (d, s) in dmax.iter_mut().zip(&hmax[yy * WIDTH..(yy + 1) * WIDTH]) {
+                *d = (*d).max(*s);
+            }
+            for (d, s) in dmin.iter_mut().zip(&hmin[yy * WIDTH..(yy + 1) * WIDTH]) {
+                *d = (*d).min(*s);
             }
         }
     }

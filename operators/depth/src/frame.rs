@@ -190,6 +190,9 @@ impl Intrinsics {
     /// iteration, as OpenCV's `undistortPoints` does (converges to < 1e-12 for Kinect lenses).
     #[must_use]
     pub fn undistort(&self, xd: f64, yd: f64) -> (f64, f64) {
+        if self.dist == [0.0; 5] {
+            return (xd, yd);
+        }
         let [k1, k2, p1, p2, k3] = self.dist;
         let (mut x, mut y) = (xd, yd);
         for _ in 0..50 {

@@ -35,7 +35,7 @@ impl Default for ResolutionParams {
 pub struct ResolutionBin {
     /// Lower edge of the distance bin, metres.
     pub from_m: f64,
-    /// Upper edge of the distance bin, metres.
+    /// Upper edge of the distance bin, metres (the last bin also holds farther pairs).
     pub to_m: f64,
     /// Neighbour pairs counted.
     pub pairs: u64,
@@ -168,18 +168,14 @@ impl ResolutionAccumulator {
                 *a += h;
             }
             let from = b as f64 * self.params.bin_width_m;
-            let to = if b + 1 == self.bins {
-                f64::INFINITY
-            } else {
-                from + self.params.bin_width_m
-            };
+            let to = from + self.params.bin_width_m;
             if let Some(s) = self.bin_stats(hist, from, to) {
                 by_distance.push(s);
             }
         }
         Resolution {
             frames: self.frames,
-            overall: self.bin_stats(&all, 0.0, f64::INFINITY),
+            overall: self.bin_stats(&all, 0.0, self.bins as f64 * self.params.bin_width_m),
             by_distance,
         }
     }

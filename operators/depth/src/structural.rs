@@ -8,7 +8,7 @@
 //! weighted least squares, scanning the ring period. The ring amplitude is the sinusoid's
 //! amplitude, the period its wavelength in pixels.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{Matrix3, Matrix5, Vector3, Vector5};
 
 use crate::frame::{HEIGHT, Intrinsics, PIXELS, Rays, WIDTH};
 use crate::plane::{ImagePlaneFit, fit_image_plane};
@@ -79,31 +79,99 @@ pub struct StructuralNoise {
     pub profile: Vec<ProfileBin>,
 }
 
+/// Weighted least-squares fit of `c0 + c1·r + c2·r² + A·cos(2πf·r) + B·sin(2πf·r)` to a
+/// profile on a uniform radius grid, for one frequency f (cycles per pixel). The polynomial
+/// block of the normal equations is the same for every f and computed once.
+struct RingFitter<'a> {
+    r: &'a [f64],
+    p: &'a [f64],
+    w: &'a [f64],
+    poly: Matrix3<f64>,
+    poly_rhs: Vector3<f64>,
+    wpp: f64,
+}
+
+#[derive(Debug, Clone, Copy)]
 struct RingFit {
-    period: f64,
-    coef: DVector<f64>,
+    frequency: f64,
+    coef: Vector5<f64>,
     rss: f64,
 }
 
-fn fit_ring(r: &[f64], p: &[f64], w: &[f64], period: f64) -> Option<RingFit> {
-    let n = r.len();
-    let k = 2.0 * std::f64::consts::PI / period;
-    let a = DMatrix::from_fn(n, 5, |i, j| {
-        let s = w[i].sqrt();
-        s * match j {
-            0 => 1.0,
-            1 => r[i],
-            2 => r[i] * r[i],
-            3 => (k * r[i]).cos(),
-            _ => (k * r[i]).sin(),
+impl<'a> RingFitter<'a> {
+    fn new(r: &'a [f64], p: &'a [f64], w: &'a [f64]) -> Self {
+        let (mut poly, mut poly_rhs, mut wpp) = (Matrix3::zeros(), Vector3::zeros(), 0.0);
+        for i in 0..r.len() {
+            let v = Vector3::new(1.0, r[i], r[i] * r[i]);
+            poly += w[i] * v * v.transpose();
+            poly_rhs += w[i] * p[i] * v;
+            wpp += w[i] * p[i] * p[i];
         }
-    });
-    let b = DVector::from_fn(n, |i, _| w[i].sqrt() * p[i]);
-    let ata = a.transpose() * &a;
-    let atb = a.transpose() * &b;
-    let coef = ata.cholesky()?.solve(&atb);
-    let rss = (&a * &coef - b).norm_squared();
-    Some(RingFit { period, coef, rss })
+        Self {
+            r,
+            p,
+            w,
+            poly,
+            poly_rhs,
+            wpp,
+        }
+    }
+
+    fn fit(&self, frequency: f64) -> Option<RingFit> {
+        let k = 2.0 * std::f64::consts::PI * frequency;
+        // cos/sin along the uniform grid by rotation (no trig per bin).
+        let step =
+            k * (self.r.get(1).copied().unwrap_or(0.0) - self.r.first().copied().unwrap_or(0.0));
+        let (rs, rc) = step.sin_cos();
+        let (mut s, mut c) = (k * self.r.first().copied().unwrap_or(0.0)).sin_cos();
+        // Sums: [w c, w r c, w r² c, w s, w r s, w r² s, w c², w c s, w s², w p c, w p s]
+        let mut a = [0.0f64; 11];
+        for i in 0..self.r.len() {
+            let (w, r, p) = (self.w[i], self.r[i], self.p[i]);
+            if w > 0.0 {
+                let (wc, ws) = (w * c, w * s);
+                a[0] += wc;
+                a[1] += wc * r;
+                a[2] += wc * r * r;
+                a[3] += ws;
+                a[4] += ws * r;
+                a[5] += ws * r * r;
+                a[6] += wc * c;
+                a[7] += wc * s;
+                a[8] += ws * s;
+                a[9] += wc * p;
+                a[10] += ws * p;
+            }
+            let (nc, ns) = (c * rc - s * rs, s * rc + c * rs);
+            c = nc;
+            s = ns;
+        }
+        let mut m = Matrix5::zeros();
+        m.fixed_view_mut::<3, 3>(0, 0).copy_from(&self.poly);
+        for j in 0..3 {
+            m[(j, 3)] = a[j];
+            m[(3, j)] = a[j];
+            m[(j, 4)] = a[3 + j];
+            m[(4, j)] = a[3 + j];
+        }
+        m[(3, 3)] = a[6];
+        m[(3, 4)] = a[7];
+        m[(4, 3)] = a[7];
+        m[(4, 4)] = a[8];
+        let rhs = Vector5::new(
+            self.poly_rhs[0],
+            self.poly_rhs[1],
+            self.poly_rhs[2],
+            a[9],
+            a[10],
+        );
+        let coef = m.cholesky()?.solve(&rhs);
+        Some(RingFit {
+            frequency,
+            coef,
+            rss: (self.wpp - coef.dot(&rhs)).max(0.0),
+        })
+    }
 }
 
 /// Structural noise of a mean frame (`mean_mm`, NaN = no data) seen through `rays`, profiled
@@ -177,29 +245,57 @@ pub fn structural_noise(
             need: 10,
         });
     }
-    let r: Vec<f64> = profile.iter().map(|b| b.radius_px).collect();
-    let p: Vec<f64> = profile.iter().map(|b| b.residual_mm).collect();
-    let w: Vec<f64> = profile.iter().map(|b| f64::from(b.pixels)).collect();
+    // The fit runs on the full uniform grid (empty bins weigh 0), from the first bin with data.
+    let first = cnt.iter().position(|&c| c > 0).unwrap_or(0);
+    let last = cnt.iter().rposition(|&c| c > 0).unwrap_or(0);
+    let r: Vec<f64> = (first..=last).map(|b| (b as f64 + 0.5) * bin).collect();
+    let w: Vec<f64> = (first..=last).map(|b| f64::from(cnt[b])).collect();
+    let p: Vec<f64> = (first..=last)
+        .map(|b| {
+            if cnt[b] > 0 {
+                sum[b] / f64::from(cnt[b])
+            } else {
+                0.0
+            }
+        })
+        .collect();
     let span = r.last().copied().unwrap_or(0.0) - r.first().copied().unwrap_or(0.0);
     let max_period = params
         .max_period_px
         .min(span / 1.5)
         .max(params.min_period_px);
+    let fitter = RingFitter::new(&r, &p, &w);
+    // Frequency grid fine enough that the phase drifts < 0.1 cycle across the profile, then a
+    // golden-section refinement around the best grid point.
+    let (f_lo, f_hi) = (1.0 / max_period, 1.0 / params.min_period_px);
+    let df = 0.1 / span.max(1.0);
     let mut best: Option<RingFit> = None;
-    let scan = |from: f64, to: f64, step: f64, best: &mut Option<RingFit>| {
-        let mut period = from;
-        while period <= to {
-            if let Some(f) = fit_ring(&r, &p, &w, period)
-                && best.as_ref().is_none_or(|b| f.rss < b.rss)
-            {
-                *best = Some(f);
-            }
-            period += step;
+    let mut f = f_lo;
+    while f <= f_hi {
+        if let Some(fit) = fitter.fit(f)
+            && best.is_none_or(|b| fit.rss < b.rss)
+        {
+            best = Some(fit);
         }
-    };
-    scan(params.min_period_px, max_period, 0.25, &mut best);
-    if let Some(centre) = best.as_ref().map(|b| b.period) {
-        scan(centre - 0.25, centre + 0.25, 0.01, &mut best);
+        f += df;
+    }
+    if let Some(b) = best {
+        let (mut a, mut c) = ((b.frequency - df).max(f_lo), (b.frequency + df).min(f_hi));
+        let g = (5f64.sqrt() - 1.0) / 2.0;
+        let rss = |f: f64| fitter.fit(f).map_or(f64::INFINITY, |x| x.rss);
+        for _ in 0..40 {
+            let (x1, x2) = (c - g * (c - a), a + g * (c - a));
+            if rss(x1) < rss(x2) {
+                c = x2;
+            } else {
+                a = x1;
+            }
+        }
+        if let Some(fit) = fitter.fit((a + c) / 2.0)
+            && fit.rss < b.rss
+        {
+            best = Some(fit);
+        }
     }
     let Some(fit) = best else {
         return Err(Error::NoPlane {
@@ -209,7 +305,7 @@ pub fn structural_noise(
     };
     let c = &fit.coef;
     let r_max = r.last().copied().unwrap_or(0.0);
-    let wsum: f64 = w.iter().sum();
+    let wsum: f64 = w.iter().sum::<f64>().max(1.0);
     let report = StructuralNoise {
         plane_distance_m: 1.0 / plane.c,
         plane_tilt_deg: plane.tilt_deg(),
@@ -220,7 +316,7 @@ pub fn structural_noise(
             f64::NAN
         },
         ring_amplitude_mm: c[3].hypot(c[4]),
-        ring_period_px: fit.period,
+        ring_period_px: 1.0 / fit.frequency,
         centre_minus_edge_mm: -(c[1] * r_max + c[2] * r_max * r_max),
         profile_fit_rms_mm: (fit.rss / wsum).sqrt(),
         profile,
