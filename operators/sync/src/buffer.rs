@@ -92,6 +92,9 @@ pub struct SyncCounters {
     pub frames_late: u64,
     /// Frames dropped because a sensor's buffer was full.
     pub frames_evicted: u64,
+    /// Frames dropped because they were captured after the server's present (see
+    /// [`SyncParams::max_future_nanos`](crate::SyncParams::max_future_nanos)).
+    pub frames_from_future: u64,
     /// NTP samples given to `push_ntp`.
     pub ntp_in: u64,
     /// NTP samples rejected (any reason).
@@ -129,6 +132,8 @@ pub struct SyncBuffer {
     /// Next instant index (`interpolate`) or cycle index (`slots`) to emit.
     next: Option<i64>,
     now_nanos: Option<i64>,
+    /// The newest server-clock reading given to `advance_to` (not moved by frame stamps).
+    clock_nanos: Option<i64>,
     last_stamp_nanos: Option<i64>,
     seq: u64,
     counters: SyncCounters,
@@ -165,6 +170,7 @@ impl SyncBuffer {
             sensors,
             next: None,
             now_nanos: None,
+            clock_nanos: None,
             last_stamp_nanos: None,
             seq: 0,
             counters: SyncCounters::default(),
@@ -256,7 +262,8 @@ impl SyncBuffer {
     }
 
     /// Buffers a frame already on the server clock (replays, tests, an external sync) and
-    /// returns the sets that became ready.
+    /// returns the sets that became ready. Errors (frame dropped and counted): unknown sensor,
+    /// captured after the server's present ([`SyncBuffer::advance_to`]).
     pub fn push_timed(
         &mut self,
         timed: TimedFrame,
@@ -271,6 +278,17 @@ impl SyncBuffer {
             return Ok(Vec::new().into_iter());
         }
         let stamp = timed.server_stamp_nanos;
+        if let Some(clock) = self.clock_nanos {
+            let lead_nanos = stamp.saturating_sub(clock);
+            if lead_nanos > self.params.max_future_nanos {
+                self.counters.frames_from_future += 1;
+                return Err(Error::FrameFromFuture {
+                    sensor_id: timed.frame.sensor_id,
+                    seq: timed.frame.seq,
+                    lead_nanos,
+                });
+            }
+        }
         if self.last_stamp_nanos.is_some_and(|last| stamp <= last) {
             self.counters.frames_late += 1;
         }
@@ -288,9 +306,13 @@ impl SyncBuffer {
         Ok(self.drain().into_iter())
     }
 
-    /// Tells the buffer that server time `now_nanos` has been reached even if no frame says so
-    /// (e.g. from a timer while every source is silent); returns the sets whose deadline passed.
+    /// Tells the buffer the server clock reads `now_nanos` (the `sync` node *is* the server
+    /// clock): sets whose deadline passed go out even while every source is silent, and from now
+    /// on a frame stamped more than [`SyncParams::max_future_nanos`] after the newest reading is
+    /// rejected as impossible, so one garbage stamp cannot drag the schedule into the future.
+    /// Call it before each `push` or on a timer faster than `max_future_nanos`.
     pub fn advance_to(&mut self, now_nanos: i64) -> impl Iterator<Item = AlignedSet> + use<> {
+        self.clock_nanos = Some(self.clock_nanos.map_or(now_nanos, |n| n.max(now_nanos)));
         self.now_nanos = Some(self.now_nanos.map_or(now_nanos, |n| n.max(now_nanos)));
         self.drain().into_iter()
     }

@@ -58,6 +58,20 @@ pub enum Error {
         /// The dropped frame's sequence number.
         seq: u64,
     },
+    /// A frame stamped later than the server clock's present (by more than
+    /// [`SyncParams::max_future_nanos`](crate::SyncParams::max_future_nanos)): a garbage stamp or
+    /// a clock step not yet detected; it was dropped.
+    #[error(
+        "frame {seq} of sensor {sensor_id:?} is stamped {lead_nanos} ns in the server's future; dropped"
+    )]
+    FrameFromFuture {
+        /// The sensor.
+        sensor_id: String,
+        /// The dropped frame's sequence number.
+        seq: u64,
+        /// How far past the server's present the frame was stamped.
+        lead_nanos: i64,
+    },
 }
 
 /// This crate's result type.

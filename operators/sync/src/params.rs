@@ -137,6 +137,10 @@ pub struct SyncParams {
     pub latency_deadline_nanos: i64,
     /// Frames buffered per sensor at most (default 64; older ones are dropped first).
     pub max_frames_per_sensor: usize,
+    /// Once [`SyncBuffer::advance_to`](crate::SyncBuffer::advance_to) has given the server
+    /// clock, frames stamped more than this after it are rejected (default 500 ms: covers clock
+    /// uncertainty and a timer-driven `advance_to`).
+    pub max_future_nanos: i64,
 }
 
 impl Default for SyncParams {
@@ -154,6 +158,7 @@ impl Default for SyncParams {
             max_extrapolation_nanos: 10_000_000,
             latency_deadline_nanos: 100_000_000,
             max_frames_per_sensor: 64,
+            max_future_nanos: 500_000_000,
         }
     }
 }
@@ -243,6 +248,13 @@ impl SyncParams {
         self
     }
 
+    /// Sets [`Self::max_future_nanos`].
+    #[must_use]
+    pub fn with_max_future_nanos(mut self, max_future_nanos: i64) -> Self {
+        self.max_future_nanos = max_future_nanos;
+        self
+    }
+
     /// Interval between fusion instants (`interpolate`), nanoseconds, rounded.
     #[must_use]
     pub fn fusion_period_nanos(&self) -> i64 {
@@ -293,6 +305,13 @@ impl SyncParams {
             return bad(
                 "latency_deadline_nanos",
                 self.latency_deadline_nanos.to_string(),
+                "non-negative",
+            );
+        }
+        if self.max_future_nanos < 0 {
+            return bad(
+                "max_future_nanos",
+                self.max_future_nanos.to_string(),
                 "non-negative",
             );
         }
