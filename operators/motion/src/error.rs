@@ -14,8 +14,8 @@ pub enum Error {
         /// What the OS said.
         source: std::io::Error,
     },
-    /// The extension is neither `.c3d` nor `.trc`.
-    #[error("{path}: unknown motion file extension {extension:?} (expected .c3d or .trc)")]
+    /// The extension is not `.c3d`, `.trc` or `.csv`.
+    #[error("{path}: unknown motion file extension {extension:?} (expected .c3d, .trc or .csv)")]
     UnknownExtension {
         /// The file.
         path: PathBuf,
@@ -33,6 +33,16 @@ pub enum Error {
     /// A TRC line could not be parsed.
     #[error("{path}:{line}: {reason}")]
     Trc {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What was wrong.
+        reason: String,
+    },
+    /// A joint CSV line could not be parsed.
+    #[error("{path}:{line}: {reason}")]
+    Csv {
         /// The file.
         path: PathBuf,
         /// 1-based line number.

@@ -6,13 +6,15 @@
 //! * **Real motion capture.** [`read_c3d`] and [`read_trc`] load marker trajectories into a
 //!   [`MarkerSet`]; [`joint_centres`] turns skin markers into the joint centres a Kinect body
 //!   tracker reports (hips by a published regression, knees and ankles from their epicondyle and
-//!   malleolus markers). [`load_motion`] does both, picking the reader by file extension.
+//!   malleolus markers). [`load_motion`] does both, picking the reader by file extension, and
+//!   also loads trigait's own exports (joint-named TRC/C3D, [`read_csv`]).
 //! * **The embedded parametric [`walker`]**, so the default dataflow runs on a fresh machine with
 //!   no files: a kinematic gait with normal-gait hip/knee/ankle curves, a stance foot that stays on
 //!   the floor and exactly constant segment lengths.
 //!
 //! The writers ([`write_trc`], [`write_c3d`], [`write_csv`]) export a [`MotionClip`] (ground truth
-//! or fused result) for OpenSim, Vicon-style tools and spreadsheets.
+//! or fused result) for OpenSim, Vicon-style tools and spreadsheets; [`load_motion`] reads each
+//! of them back.
 //!
 //! # Frames and units
 //! Everything inside is SI and in the world frame of DESIGN.md: metres, right-handed, Z up, floor at
@@ -38,7 +40,7 @@ use std::path::Path;
 
 pub use c3d::{read_c3d, write_c3d};
 pub use centres::{JointCentreParams, joint_centres, joint_centres_with};
-pub use csv::write_csv;
+pub use csv::{read_csv, write_csv};
 pub use error::{Error, Result};
 pub use markers::{MarkerGaps, MarkerSet};
 pub use trc::{read_trc, write_trc};
@@ -52,6 +54,8 @@ pub enum MotionFormat {
     C3d,
     /// OpenSim / Motion Analysis track-row-column text (`.trc`).
     Trc,
+    /// trigait's joint CSV (`.csv`) as [`write_csv`] writes it.
+    Csv,
 }
 
 impl MotionFormat {
@@ -67,6 +71,7 @@ impl MotionFormat {
         match extension.to_ascii_lowercase().as_str() {
             "c3d" => Ok(MotionFormat::C3d),
             "trc" => Ok(MotionFormat::Trc),
+            "csv" => Ok(MotionFormat::Csv),
             _ => Err(Error::UnknownExtension {
                 path: path.to_path_buf(),
                 extension,
@@ -75,26 +80,69 @@ impl MotionFormat {
     }
 }
 
-/// Reads the marker trajectories of a `.c3d` or `.trc` file (extension case-insensitive).
+/// Reads the trajectories of a `.c3d`, `.trc` or `.csv` file (extension case-insensitive) as
+/// markers. A joint CSV gives one marker per joint, labelled by the joint's name.
 ///
 /// # Errors
-/// [`Error::UnknownExtension`] for other files, else as [`read_c3d`] / [`read_trc`].
+/// [`Error::UnknownExtension`] for other files, else as [`read_c3d`] / [`read_trc`] /
+/// [`read_csv`].
 pub fn read_markers(path: impl AsRef<Path>) -> Result<MarkerSet> {
     let path = path.as_ref();
     match MotionFormat::from_path(path)? {
         MotionFormat::C3d => read_c3d(path),
         MotionFormat::Trc => read_trc(path),
+        MotionFormat::Csv => {
+            let clip = read_csv(path)?;
+            let labels = clip.joints().iter().map(|j| j.name().to_string()).collect();
+            let frames = (0..clip.frame_count())
+                .map(|f| clip.joints().iter().map(|j| clip.position(f, *j)).collect())
+                .collect();
+            MarkerSet::new(clip.name(), clip.rate_hz(), labels, frames)
+        }
     }
 }
 
-/// Loads a marker file and returns its joint centres: the ground truth the simulator plays.
+/// The clip of a marker set whose every label is a joint name (`knee_left`, `KneeLeft`, with or
+/// without a `subject:` prefix), as in files trigait exported; `None` for skin markers, an empty
+/// set, or a joint named twice.
+#[must_use]
+pub fn joints_from_labels(markers: &MarkerSet) -> Option<MotionClip> {
+    let joints: Vec<Joint> = markers
+        .labels()
+        .iter()
+        .map(|l| Joint::from_name(l.rsplit(':').next().unwrap_or(l).trim()))
+        .collect::<Option<_>>()?;
+    if joints.is_empty() {
+        return None;
+    }
+    let frames = (0..markers.frame_count())
+        .map(|f| {
+            (0..joints.len())
+                .map(|c| markers.position_at_column(f, c))
+                .collect()
+        })
+        .collect();
+    MotionClip::new(markers.name(), markers.rate_hz(), joints, frames).ok()
+}
+
+/// Loads a motion file as joint trajectories: the ground truth the simulator plays.
 ///
-/// Dispatches on the extension (`.c3d` / `.trc`, case-insensitive), then calls
-/// [`joint_centres`]. The clip keeps the laboratory's origin (floor at z = 0).
+/// Dispatches on the extension (case-insensitive): `.csv` is read as joints; a `.c3d` / `.trc`
+/// whose markers are all joint names (a trigait export) is taken as is
+/// ([`joints_from_labels`]); any other `.c3d` / `.trc` holds skin markers, turned into joint
+/// centres by [`joint_centres`]. The clip keeps the file's origin (floor at z = 0).
 ///
 /// # Errors
-/// [`Error::UnknownExtension`], any reader error, or [`Error::MissingMarker`] when the file lacks
-/// the pelvis or leg markers the joint centres need.
+/// [`Error::UnknownExtension`], any reader error, or [`Error::MissingMarker`] when skin markers
+/// lack the pelvis or leg markers the joint centres need.
 pub fn load_motion(path: impl AsRef<Path>) -> Result<MotionClip> {
-    joint_centres(&read_markers(path)?)
+    let path = path.as_ref();
+    if MotionFormat::from_path(path)? == MotionFormat::Csv {
+        return read_csv(path);
+    }
+    let markers = read_markers(path)?;
+    match joints_from_labels(&markers) {
+        Some(clip) => Ok(clip),
+        None => joint_centres(&markers),
+    }
 }
