@@ -32,9 +32,9 @@ use crate::{Error, MarkerSet, Result};
 
 /// Joint widths and marker size for the lateral-marker offsets.
 ///
-/// The defaults are typical adult values: a knee (femoral epicondyle) width of 100 mm and an
-/// ankle (malleolar) width of 70 mm, as in the Plug-in Gait defaults and adult anthropometric
-/// surveys, and the common 14 mm marker. Measure the subject when the widths are known.
+/// The defaults are typical adult values: about 100 mm across the femoral epicondyles, about
+/// 70 mm across the malleoli, and the common 14 mm Vicon marker. Neither recording states the
+/// subject's widths; Plug-in Gait asks for measured ones, so use them when they are known.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointCentreParams {
     /// Medial–lateral knee width across the epicondyles, metres.

@@ -16,6 +16,17 @@
 //! or fused result) for OpenSim, Vicon-style tools and spreadsheets; [`load_motion`] reads each
 //! of them back.
 //!
+//! ```
+//! use trigait_motion::{Joint, WalkerParams, walker};
+//!
+//! // Two seconds of the default walker at the Kinect's 30 Hz.
+//! let clip = walker(&WalkerParams::default(), 2.0, 30.0)?;
+//! assert_eq!(clip.frame_count(), 61);
+//! let ankle = clip.position(0, Joint::AnkleRight).unwrap();
+//! assert!(ankle.z > 0.0 && ankle.z < 0.15);
+//! # Ok::<(), trigait_motion::Error>(())
+//! ```
+//!
 //! # Frames and units
 //! Everything inside is SI and in the world frame of DESIGN.md: metres, right-handed, Z up, floor at
 //! z = 0. Files are converted at the edge: C3D points by their `POINT:UNITS`, TRC by its `Units`
