@@ -11,6 +11,8 @@ use clap::{Parser, Subcommand};
 
 mod depth_metrics;
 mod eval;
+mod export;
+mod gait;
 
 /// Markerless 3-D gait tracking from several Kinect v2 depth sensors.
 #[derive(Debug, Parser)]
@@ -27,12 +29,18 @@ enum Command {
     Eval(eval::Args),
     /// Kinect v2 depth accuracy: the thesis's five depth metrics, maps, and a multi-sensor floor check.
     DepthMetrics(depth_metrics::Args),
+    /// Gait events and spatiotemporal parameters (stride, step, cadence, speed, stance) of a C3D/TRC walk.
+    Gait(gait::Args),
+    /// Export joint trajectories as TRC (OpenSim), C3D or CSV.
+    Export(export::Args),
 }
 
 fn run(args: Args) -> eyre::Result<()> {
     match args.command {
         Command::Eval(args) => eval::run(&args),
         Command::DepthMetrics(args) => depth_metrics::run(args),
+        Command::Gait(args) => gait::run(args),
+        Command::Export(args) => export::run(args),
     }
 }
 

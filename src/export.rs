@@ -1,0 +1,85 @@
+//! `trigait export INPUT --format trc|c3d|csv -o OUT`: joint trajectories into the files other
+//! gait tools open. Wiring only; the writers are `trigait-motion`'s.
+
+use std::path::{Path, PathBuf};
+
+use clap::ValueEnum;
+use eyre::WrapErr;
+use trigait_gait::filter::Filter;
+
+/// Arguments of `trigait export`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Motion to export: C3D/TRC markers (exported as joint centres) or trigait joint files
+    /// (C3D/TRC with joint-named markers, CSV).
+    pub input: PathBuf,
+    /// Output format; by default taken from the extension of `--output`.
+    #[arg(long, value_enum)]
+    pub format: Option<Format>,
+    /// Output file.
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+    /// Trajectory filter applied before writing: none, butterworth:<f>hz or one-euro.
+    #[arg(long, default_value = "none", value_parser = parse_filter)]
+    pub filter: Filter,
+}
+
+/// Export format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    /// OpenSim TRC: millimetres, Y up, one marker per joint.
+    Trc,
+    /// C3D (float), millimetres, Z up, one point per joint; readable by c3dio and Vicon-style tools.
+    C3d,
+    /// CSV: frame, time and x/y/z of every joint in metres, Z up.
+    Csv,
+}
+
+fn parse_filter(spec: &str) -> Result<Filter, String> {
+    spec.parse::<Filter>().map_err(|e| e.to_string())
+}
+
+fn format_of(path: &Path) -> Option<Format> {
+    let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
+    match ext.as_str() {
+        "trc" => Some(Format::Trc),
+        "c3d" => Some(Format::C3d),
+        "csv" => Some(Format::Csv),
+        _ => None,
+    }
+}
+
+/// Runs `trigait export`.
+pub fn run(args: Args) -> eyre::Result<()> {
+    let format = match args.format.or_else(|| format_of(&args.output)) {
+        Some(f) => f,
+        None => eyre::bail!(
+            "cannot tell the format of {}: pass --format trc|c3d|csv or use one of those extensions",
+            args.output.display()
+        ),
+    };
+    let clip = crate::gait::load_clip(&args.input)?;
+    let clip = args
+        .filter
+        .apply(&clip)
+        .wrap_err_with(|| format!("filtering with {}", args.filter))?;
+    let written = match format {
+        Format::Trc => trigait_motion::write_trc(&args.output, &clip),
+        Format::C3d => trigait_motion::write_c3d(&args.output, &clip),
+        Format::Csv => trigait_motion::write_csv(&args.output, &clip),
+    };
+    written.wrap_err_with(|| format!("writing {}", args.output.display()))?;
+    crate::gait::print_stdout(&format!(
+        "wrote {} ({} joints, {} frames at {:.0} Hz, filter {}) to {}\n",
+        match format {
+            Format::Trc => "TRC",
+            Format::C3d => "C3D",
+            Format::Csv => "CSV",
+        },
+        clip.joints().len(),
+        clip.frame_count(),
+        clip.rate_hz(),
+        args.filter,
+        args.output.display()
+    ))
+}

@@ -1,0 +1,234 @@
+//! `trigait gait` end to end: the binary on the real walks, its JSON, plots and error messages.
+#![allow(clippy::unwrap_used)] // tests may unwrap (STYLE.md §6); helpers outside #[test] fns need saying so
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn trigait(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_trigait"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn json(path: &Path, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec!["gait", path.to_str().unwrap(), "--json"];
+    args.extend_from_slice(extra);
+    let out = trigait(&args);
+    assert!(
+        out.status.success(),
+        "trigait {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+fn mean(v: &serde_json::Value, key: &str) -> f64 {
+    v["summary"][key]["mean"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("no {key} mean in {v}"))
+}
+
+/// Heel-strike times of one foot from the JSON event list.
+fn heel_strikes(v: &serde_json::Value, foot: &str) -> Vec<f64> {
+    v["events"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["foot"] == foot && e["kind"] == "heel_strike")
+        .map(|e| e["time_secs"].as_f64().unwrap())
+        .collect()
+}
+
+/// Heel strikes from the heel marker's height minima, as in
+/// operators/gait/tests/markers.rs: first local minimum within 3 cm of the floor level after
+/// each swing peak (or a descent under way at the first frame).
+fn marker_heel_strikes(path: &Path, label: &str) -> Vec<f64> {
+    let set = trigait_motion::read_markers(path).unwrap();
+    let column = set.marker(label).unwrap();
+    let z: Vec<f64> = set
+        .trajectory(column)
+        .iter()
+        .map(|p| p.map_or(f64::NAN, |p| p.z))
+        .collect();
+    let mut sorted: Vec<f64> = z.iter().copied().filter(|v| v.is_finite()).collect();
+    sorted.sort_by(f64::total_cmp);
+    let floor = sorted[sorted.len() / 4];
+    let mut peaks: Vec<usize> = Vec::new();
+    if z[0] > floor + 0.1 && z[1] < z[0] {
+        peaks.push(0);
+    }
+    peaks.extend(
+        (1..z.len() - 1).filter(|&i| z[i] > z[i - 1] && z[i] >= z[i + 1] && z[i] > floor + 0.1),
+    );
+    let mut out = Vec::new();
+    for (k, &p) in peaks.iter().enumerate() {
+        let end = peaks.get(k + 1).copied().unwrap_or(z.len() - 1);
+        if let Some(i) =
+            (p + 1..end).find(|&i| z[i] < z[i - 1] && z[i] <= z[i + 1] && z[i] < floor + 0.03)
+        {
+            out.push(i as f64 / set.rate_hz());
+        }
+    }
+    out
+}
+
+fn check_walk(relative: &str, heels: [&str; 2]) {
+    let Some(path) = trigait_test_data::shared_file(relative) else {
+        return;
+    };
+    for method in ["coordinate", "velocity"] {
+        let v = json(&path, &["--method", method]);
+        for (foot, heel) in ["left", "right"].into_iter().zip(heels) {
+            let found = heel_strikes(&v, foot);
+            let reference = marker_heel_strikes(&path, heel);
+            assert!(!reference.is_empty());
+            assert_eq!(
+                found.len(),
+                reference.len(),
+                "{relative} {method} {foot}: {found:?} vs markers {reference:?}"
+            );
+            for (f, r) in found.iter().zip(&reference) {
+                assert!(
+                    (f - r).abs() < 0.1,
+                    "{relative} {method} {foot}: {f} vs {r}"
+                );
+            }
+            assert_eq!(v["heel_strikes"][foot].as_u64(), Some(found.len() as u64));
+        }
+        let cadence = mean(&v, "cadence_steps_per_min");
+        let stride = mean(&v, "stride_length_m");
+        let speed = mean(&v, "speed_mps");
+        assert!(
+            (95.0..125.0).contains(&cadence),
+            "{relative}: cadence {cadence}"
+        );
+        assert!((1.2..1.7).contains(&stride), "{relative}: stride {stride}");
+        assert!((1.0..1.6).contains(&speed), "{relative}: speed {speed}");
+        assert!(v["summary"]["strides"].as_u64().unwrap() >= 2);
+        assert_eq!(v["excluded"].as_array().unwrap().len(), 0);
+    }
+}
+
+/// Issue 5 acceptance: every heel strike of each foot in CMU 07_01, with cadence, stride length
+/// and speed reported.
+#[test]
+fn issue_5_cmu_heel_strikes_and_parameters() {
+    check_walk("mocap-cmu-07_01/07_01.c3d", ["LHEE", "RHEE"]);
+}
+
+/// Issue 5 acceptance: the same for the OpenSim Rajagopal walk (TRC, Y-up file).
+#[test]
+fn issue_5_rajagopal_heel_strikes_and_parameters() {
+    check_walk(
+        "mocap-opensim-rajagopal-walk/Rajagopal__motion_capture_walk.trc",
+        ["L.Heel", "R.Heel"],
+    );
+}
+
+/// Filtering a clean mocap walk with a 6 Hz zero-lag Butterworth barely moves the parameters.
+#[test]
+fn butterworth_filter_keeps_mocap_parameters() {
+    let Some(path) = trigait_test_data::shared_file("mocap-cmu-07_01/07_01.c3d") else {
+        return;
+    };
+    let raw = json(&path, &[]);
+    let filtered = json(&path, &["--filter", "butterworth:6hz"]);
+    assert_eq!(filtered["filter"], "butterworth:6hz");
+    let d = mean(&raw, "stride_length_m") - mean(&filtered, "stride_length_m");
+    assert!(d.abs() < 0.01, "stride length moved {d} m");
+    let c = mean(&raw, "cadence_steps_per_min") / mean(&filtered, "cadence_steps_per_min");
+    assert!((c - 1.0).abs() < 0.02);
+}
+
+/// The table names the parameters and counts; `--plots` writes four non-trivial files.
+#[test]
+fn table_and_plots() {
+    let Some(path) = trigait_test_data::shared_file("mocap-cmu-07_01/07_01.c3d") else {
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("trigait-gait-cli-{}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    let out = trigait(&[
+        "gait",
+        path.to_str().unwrap(),
+        "--plots",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    for needle in [
+        "stride length (m)",
+        "cadence (steps/min)",
+        "double support (%)",
+        "left  heel strikes",
+    ] {
+        assert!(text.contains(needle), "table lacks {needle:?}:\n{text}");
+    }
+    for (name, min_bytes) in [
+        ("07_01_trajectories.svg", 20_000),
+        ("07_01_trajectories.png", 20_000),
+        ("07_01_footfall.svg", 5_000),
+        ("07_01_footfall.png", 5_000),
+    ] {
+        let bytes = std::fs::read(dir.join(name)).unwrap();
+        assert!(bytes.len() > min_bytes, "{name}: {} bytes", bytes.len());
+        if name.ends_with(".png") {
+            assert_eq!(&bytes[1..4], b"PNG");
+            // IHDR width and height, big-endian at bytes 16..24.
+            let w = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
+            let h = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
+            let expected = if name.contains("footfall") {
+                trigait_gait::plot::FOOTFALL_SIZE
+            } else {
+                trigait_gait::plot::TRAJECTORIES_SIZE
+            };
+            assert_eq!((w, h), expected);
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn fails_with(args: &[&str], needle: &str) {
+    let out = trigait(args);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{args:?} should fail with exit 2"
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(needle),
+        "{args:?}: stderr {err:?} lacks {needle:?}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+/// Broken input is a clear message and exit code 2, never a panic: a missing file, a file of
+/// the wrong kind, a bad filter, and a walk too short for two strides.
+#[test]
+fn bad_input_is_a_clear_error() {
+    fails_with(&["gait", "/nonexistent/walk.c3d"], "walk.c3d");
+    let dir = std::env::temp_dir().join(format!("trigait-gait-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let junk = dir.join("junk.trc");
+    std::fs::write(&junk, "not a trc file\n").unwrap();
+    fails_with(&["gait", junk.to_str().unwrap()], "junk.trc");
+    let Some(path) = trigait_test_data::shared_file("mocap-cmu-07_01/07_01.c3d") else {
+        return;
+    };
+    fails_with(
+        &["gait", path.to_str().unwrap(), "--filter", "kalman"],
+        "butterworth:6hz",
+    );
+    // Demanding more strides than a 2.6 s walk has.
+    fails_with(
+        &["gait", path.to_str().unwrap(), "--min-strides", "5"],
+        "complete strides, need at least 5",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
