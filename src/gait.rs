@@ -8,7 +8,7 @@ use eyre::WrapErr;
 use serde::Serialize;
 use trigait_gait::filter::Filter;
 use trigait_gait::{EventKind, EventMethod, Foot, GaitAnalysis, GaitParams, Stat, plot};
-use trigait_skeleton::{Joint, MotionClip};
+use trigait_skeleton::MotionClip;
 
 /// Arguments of `trigait gait`.
 #[derive(Debug, clap::Args)]
@@ -82,135 +82,12 @@ impl Counts {
     }
 }
 
-/// Loads a motion file as joint trajectories.
-///
-/// * `.csv`: trigait's own joint CSV (`frame,time_s,<joint>_x_m,<joint>_y_m,<joint>_z_m,…`, as
-///   `trigait export` and the recorder write it).
-/// * `.c3d` / `.trc` whose markers are all named after joints (`hip_left`, … — files trigait
-///   exported): the trajectories are the joints themselves.
-/// * any other `.c3d` / `.trc`: skin markers, turned into joint centres by
-///   `trigait_motion::joint_centres`.
+/// Loads a motion file as joint trajectories with `trigait_motion::load_motion`: skin-marker
+/// C3D/TRC files become joint centres, trigait's own exports (joint-named C3D/TRC, joint CSV)
+/// are read as they are.
 pub fn load_clip(path: &Path) -> eyre::Result<MotionClip> {
-    let is_csv = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
-    let clip = if is_csv {
-        read_joint_csv(path)
-    } else {
-        trigait_motion::read_markers(path)
-            .map_err(eyre::Report::from)
-            .and_then(|set| match joints_from_labels(&set)? {
-                Some(clip) => Ok(clip),
-                None => Ok(trigait_motion::joint_centres(&set)?),
-            })
-    };
-    clip.wrap_err_with(|| format!("reading joint trajectories from {}", path.display()))
-}
-
-/// The clip of a marker set whose every label is a joint name, else `None`.
-fn joints_from_labels(set: &trigait_motion::MarkerSet) -> eyre::Result<Option<MotionClip>> {
-    let joints: Option<Vec<Joint>> = set
-        .labels()
-        .iter()
-        .map(|l| Joint::from_name(l.rsplit(':').next().unwrap_or(l)))
-        .collect();
-    let Some(joints) = joints.filter(|j| !j.is_empty()) else {
-        return Ok(None);
-    };
-    let frames = (0..set.frame_count())
-        .map(|f| {
-            (0..joints.len())
-                .map(|c| set.position_at_column(f, c))
-                .collect()
-        })
-        .collect();
-    Ok(Some(MotionClip::new(
-        set.name(),
-        set.rate_hz(),
-        joints,
-        frames,
-    )?))
-}
-
-/// Reads trigait's joint CSV: header `frame,time_s,<joint>_x_m,<joint>_y_m,<joint>_z_m,…`,
-/// metres, Z up, a gap as empty cells; the rate comes from the time column.
-fn read_joint_csv(path: &Path) -> eyre::Result<MotionClip> {
-    let text = std::fs::read_to_string(path).wrap_err("reading the file")?;
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines
-        .next()
-        .ok_or_else(|| eyre::eyre!("the file is empty"))?;
-    let fields: Vec<&str> = header.split(',').map(str::trim).collect();
-    if fields.len() < 5
-        || fields[0] != "frame"
-        || fields[1] != "time_s"
-        || !(fields.len() - 2).is_multiple_of(3)
-    {
-        eyre::bail!(
-            "line 1: expected the header `frame,time_s,<joint>_x_m,<joint>_y_m,<joint>_z_m,…`"
-        );
-    }
-    let mut joints = Vec::new();
-    for triple in fields[2..].chunks(3) {
-        let name = triple[0].strip_suffix("_x_m").unwrap_or(triple[0]);
-        let joint = Joint::from_name(name).ok_or_else(|| {
-            eyre::eyre!(
-                "line 1: {:?} is not `<joint>_x_m` for a known joint",
-                triple[0]
-            )
-        })?;
-        if triple[1] != format!("{name}_y_m") || triple[2] != format!("{name}_z_m") {
-            eyre::bail!("line 1: expected {name}_y_m,{name}_z_m after {}", triple[0]);
-        }
-        joints.push(joint);
-    }
-    let mut times = Vec::new();
-    let mut frames = Vec::new();
-    for (index, line) in lines {
-        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
-        if cells.len() != fields.len() {
-            eyre::bail!(
-                "line {}: {} cells, the header has {}",
-                index + 1,
-                cells.len(),
-                fields.len()
-            );
-        }
-        let number = |cell: &str| -> eyre::Result<Option<f64>> {
-            if cell.is_empty() {
-                return Ok(None);
-            }
-            cell.parse::<f64>()
-                .map(Some)
-                .map_err(|_| eyre::eyre!("line {}: {cell:?} is not a number", index + 1))
-        };
-        times.push(number(cells[1])?.ok_or_else(|| eyre::eyre!("line {}: no time", index + 1))?);
-        let mut row = Vec::with_capacity(joints.len());
-        for triple in cells[2..].chunks(3) {
-            row.push(
-                match (number(triple[0])?, number(triple[1])?, number(triple[2])?) {
-                    (Some(x), Some(y), Some(z)) => Some(nalgebra::Point3::new(x, y, z)),
-                    _ => None,
-                },
-            );
-        }
-        frames.push(row);
-    }
-    let (Some(first), Some(last)) = (times.first(), times.last()) else {
-        eyre::bail!("the file has a header but no frames");
-    };
-    let rate_hz = if times.len() > 1 && last > first {
-        (times.len() - 1) as f64 / (last - first)
-    } else {
-        eyre::bail!("cannot tell the sample rate from fewer than two increasing times");
-    };
-    let name = path
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    Ok(MotionClip::new(name, rate_hz, joints, frames)?)
+    trigait_motion::load_motion(path)
+        .wrap_err_with(|| format!("reading joint trajectories from {}", path.display()))
 }
 
 /// Runs `trigait gait`.
