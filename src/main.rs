@@ -9,6 +9,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod bench;
 mod depth_metrics;
 mod eval;
 mod export;
@@ -25,6 +26,8 @@ pub struct Args {
 // Each variant's doc comment is its one-line help in `trigait --help`.
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Estimator throughput as ratios against linear trilateration and against SciPy.
+    Bench(bench::Args),
     /// Score the estimators on a simulated rig against ground truth and the Cramér–Rao bound.
     Eval(eval::Args),
     /// Kinect v2 depth accuracy: the thesis's five depth metrics, maps, and a multi-sensor floor check.
@@ -37,6 +40,7 @@ enum Command {
 
 fn run(args: Args) -> eyre::Result<()> {
     match args.command {
+        Command::Bench(args) => bench::run(&args),
         Command::Eval(args) => eval::run(&args),
         Command::DepthMetrics(args) => depth_metrics::run(args),
         Command::Gait(args) => gait::run(args),

@@ -169,3 +169,34 @@ fn bad_input_is_a_clear_error() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("loading motion"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `trigait bench` prints each estimator's throughput as a ratio to linear trilateration, and
+/// without a Python interpreter says how to get the SciPy baseline instead of failing.
+#[test]
+fn bench_prints_ratios_against_linear() {
+    let export = std::env::temp_dir().join(format!("trigait-bench-{}.json", std::process::id()));
+    let out = trigait(&[
+        "bench",
+        "--problems",
+        "300",
+        "--export",
+        export.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("300 joint observations"), "{text}");
+    let linear = text.lines().find(|l| l.starts_with("linear")).unwrap();
+    assert!(linear.trim_end().ends_with("1.00×"), "{linear}");
+    assert!(text.contains("SciPy baseline skipped"), "{text}");
+    let problems: Value = serde_json::from_slice(&std::fs::read(&export).unwrap()).unwrap();
+    let first = &problems["problems"][0];
+    assert_eq!(
+        first["sensors"].as_array().unwrap().len(),
+        first["ranges"].as_array().unwrap().len()
+    );
+    std::fs::remove_file(&export).ok();
+}
