@@ -151,7 +151,7 @@ impl Segmentation {
         self.segments
             .iter()
             .map(|s| (s.last_frame - s.first_frame + 1) as f64 / rate_hz)
-            .sum()
+            .fold(0.0, |a, b| a + b)
     }
 
     /// Total excluded time for `reason` (s), counted in frames.
@@ -161,7 +161,7 @@ impl Segmentation {
             .iter()
             .filter(|p| p.reason == reason)
             .map(|p| p.frames as f64 / rate_hz)
-            .sum()
+            .fold(0.0, |a, b| a + b) // `sum()` of nothing is −0.0, printed "-0.00"
     }
 
     /// The segment holding `frame`, if any.
