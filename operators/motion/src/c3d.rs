@@ -132,7 +132,7 @@ pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
 
 /// Writes `clip` as a float-format C3D file with c3dio: one point per joint (labelled by its
 /// snake_case name), millimetres, Z up as our world (`X_SCREEN` +X, `Y_SCREEN` +Z),
-/// `POINT:RATE` and `POINT:SCALE` set for readers that need them. A gap is written as (0, 0, 0)
+/// `POINT:RATE`, `POINT:SCALE` and `POINT:DATA_START` set for readers that need them. A gap is written as (0, 0, 0)
 /// flagged invalid (fourth word −1.0), as the C3D spec asks.
 ///
 /// # Errors
@@ -217,11 +217,40 @@ pub fn write_c3d(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
     points.format = c3dio::DataFormat::Float;
     points.first_frame = 1;
     points.last_frame = frames as u16;
-    let target = PathBuf::from(path);
-    catch_unwind(AssertUnwindSafe(|| c3d.write_path(target).map(|_| ())))
-        .map_err(|_| write_error("c3dio panicked while writing".to_string()))?
-        .map_err(|e| write_error(format!("{e:?}")))?;
-    mark_gaps_invalid(path, clip)
+    // POINT:DATA_START must name the block the data starts in, which c3dio only decides while
+    // writing: write, read the header's pointer back, store it and write again until they agree
+    // (the parameter can push the section over a block boundary at most once).
+    let mut data_start = None;
+    for _ in 0..3 {
+        if let Some(block) = data_start {
+            c3d.parameters
+                .insert("POINT", "DATA_START", Parameter::integer(block));
+        }
+        let target = PathBuf::from(path);
+        catch_unwind(AssertUnwindSafe(|| c3d.write_path(target).map(|_| ())))
+            .map_err(|_| write_error("c3dio panicked while writing".to_string()))?
+            .map_err(|e| write_error(format!("{e:?}")))?;
+        let written = header_data_block(path)?;
+        if data_start == Some(written) {
+            return mark_gaps_invalid(path, clip);
+        }
+        data_start = Some(written);
+    }
+    Err(write_error(
+        "the data start block does not settle; c3dio's layout changed".to_string(),
+    ))
+}
+
+/// Header word 9 of a C3D file c3dio wrote: the 1-based block where the data starts.
+fn header_data_block(path: &Path) -> Result<i16> {
+    let mut header = [0u8; 18];
+    std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut header))
+        .map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    Ok(i16::from_le_bytes([header[16], header[17]]))
 }
 
 /// Rewrites the fourth word of every gap to −1.0, the C3D float-format flag for an invalid point.

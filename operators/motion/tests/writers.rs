@@ -108,6 +108,10 @@ fn c3d_round_trip() {
 
     let raw = c3dio::C3d::load_path(path.clone()).unwrap();
     std::fs::remove_file(&path).unwrap();
+    // POINT:DATA_START agrees with the header's pointer.
+    let start = raw.parameters.get("POINT", "DATA_START").unwrap();
+    let start: i16 = start.as_ref().try_into().unwrap();
+    assert_eq!(usize::try_from(start).unwrap(), data_start / 512 + 1);
     assert_eq!(raw.points.labels.len(), 25);
     assert_eq!(raw.points.labels[0].trim(), "spine_base");
     assert_eq!(raw.points.frame_rate, 60.0);
