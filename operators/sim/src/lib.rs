@@ -92,7 +92,7 @@ impl Simulator {
     #[must_use]
     pub fn sensor_phase_secs(seed: u64, sensor: usize) -> f64 {
         use rand::Rng;
-        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7068_6173_65);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0070_6861_7365);
         rng.set_stream(sensor as u64 + 1);
         rng.random::<f64>() * FRAME_PERIOD_SECS
     }
