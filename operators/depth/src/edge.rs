@@ -157,7 +157,7 @@ fn window_min_max(z: &[u16], r: usize) -> (Vec<u16>, Vec<u16>) {
 }
 
 /// Separable (2r+1)² window extreme by shifted element-wise passes over rows, then rows.
-fn window_extreme(input: &[i16], r: usize, op: fn(i16, i16) -> i16) -> Vec<i16> {
+fn window_extreme(input: &[i16], r: usize, op: impl Fn(i16, i16) -> i16 + Copy) -> Vec<i16> {
     let mut h = input.to_vec();
     for (dst, src) in h.chunks_exact_mut(WIDTH).zip(input.chunks_exact(WIDTH)) {
         for o in 1..=r.min(WIDTH - 1) {

@@ -162,7 +162,7 @@ pub(crate) fn window_pass(frames: &[u16], stats: Option<&mut PixelStats>) -> Vec
     window_pass_impl(frames, stats, true)
 }
 
-/// Largest spread of differences (max − min + 1) within a block for the vector path.
+/// Largest spread of differences (max − min) within one pixel for the vector path.
 const VECTOR_RANGE: i16 = 24;
 
 /// Scratch buffers of [`block_entropy`].
@@ -174,7 +174,7 @@ struct BlockScratch {
 
 /// Eq. 3.3 for the 64 pixels of a block at once: differences as i16 lanes, and for each
 /// difference value j in the block's (narrow) range the count c_j of every lane, so the work
-/// is element-wise over lanes and vectorises. Returns false (nothing written) when the block's
+/// is element-wise over lanes and vectorises. Returns false (nothing written) when a pixel's
 /// differences span more than [`VECTOR_RANGE`] values; the caller then goes pixel by pixel.
 fn block_entropy(
     block: &[u16],
@@ -211,18 +211,30 @@ fn block_entropy(
             m[k] += i16::from(ok);
         }
     }
-    let block_lo = lo.iter().copied().min().unwrap_or(i16::MAX);
-    let block_hi = hi.iter().copied().max().unwrap_or(i16::MIN);
-    if block_hi < block_lo {
+    // Shift every lane to start at 0 so the value loop runs over the widest lane's range,
+    // not the whole block's.
+    let mut widest = -1i32;
+    for k in 0..BLOCK {
+        if m[k] > 0 {
+            widest = widest.max(i32::from(hi[k]) - i32::from(lo[k]));
+        }
+    }
+    if widest < 0 {
         // No valid pair anywhere in the block.
         return true;
     }
-    if i32::from(block_hi) - i32::from(block_lo) >= i32::from(VECTOR_RANGE) {
+    if widest >= i32::from(VECTOR_RANGE) {
         return false;
+    }
+    for p in 0..pairs {
+        let diffs = &mut scratch.diffs[p * BLOCK..(p + 1) * BLOCK];
+        for k in 0..BLOCK {
+            diffs[k] = diffs[k].wrapping_sub(lo[k]);
+        }
     }
     let log2: [f32; 257] = std::array::from_fn(|c| if c == 0 { 0.0 } else { (c as f32).log2() });
     let mut s = [0f32; BLOCK];
-    for j in block_lo..=block_hi {
+    for j in 0..=widest as i16 {
         let mut c = [0i16; BLOCK];
         for p in 0..pairs {
             let diffs = &scratch.diffs[p * BLOCK..(p + 1) * BLOCK];
@@ -243,6 +255,66 @@ fn block_entropy(
         }
     }
     true
+}
+
+/// Folds the per-pixel moments of one block (n frames × 64 lanes) into `stats`, lane by lane
+/// so the loops vectorise. Min/max live in the sign-flipped i16 domain (SSE2 has signed i16
+/// min/max only; 0 maps to the neutral element). Sums are taken of deviations from each lane's
+/// maximum, which fit i16 and whose squares fit u32 when the lane's range is small; a block
+/// with a wider range is summed exactly in u64 instead.
+fn block_moments(block: &[u16], n: usize, start: usize, len: usize, stats: &mut PixelStats) {
+    let mut count = [0u32; BLOCK];
+    let mut min = [i16::MAX; BLOCK];
+    let mut max = [i16::MIN; BLOCK];
+    for f in 0..n {
+        let row = &block[f * BLOCK..(f + 1) * BLOCK];
+        for k in 0..BLOCK {
+            let v = row[k];
+            count[k] += u32::from(v != 0);
+            min[k] = min[k].min((v.wrapping_sub(1) ^ 0x8000) as i16);
+            max[k] = max[k].max((v ^ 0x8000) as i16);
+        }
+    }
+    let lo: [u16; BLOCK] = std::array::from_fn(|k| ((min[k] as u16) ^ 0x8000).wrapping_add(1));
+    let hi: [u16; BLOCK] = std::array::from_fn(|k| (max[k] as u16) ^ 0x8000);
+    // |deviation| ≤ limit keeps n·deviation² within u32 and the deviation within i16.
+    let limit = ((f64::from(u32::MAX) / n.max(1) as f64).sqrt() as u32).min(32_767);
+    let narrow = (0..BLOCK).all(|k| count[k] == 0 || u32::from(hi[k] - lo[k]) <= limit);
+    let mut sum = [0u64; BLOCK];
+    let mut sumsq = [0u64; BLOCK];
+    if narrow {
+        let mut dsum = [0i32; BLOCK];
+        let mut dsq = [0u32; BLOCK];
+        for f in 0..n {
+            let row = &block[f * BLOCK..(f + 1) * BLOCK];
+            for k in 0..BLOCK {
+                let v = row[k];
+                let mask = -i16::from(v != 0);
+                let dev = (v.wrapping_sub(hi[k]) as i16) & mask;
+                let d = i32::from(dev);
+                dsum[k] += d;
+                dsq[k] += (d * d) as u32;
+            }
+        }
+        for k in 0..BLOCK {
+            let (c, r) = (i64::from(count[k]), i64::from(hi[k]));
+            let ds = i64::from(dsum[k]);
+            sum[k] = (c * r + ds) as u64;
+            sumsq[k] = (c * r * r + 2 * r * ds + i64::from(dsq[k])) as u64;
+        }
+    } else {
+        for f in 0..n {
+            let row = &block[f * BLOCK..(f + 1) * BLOCK];
+            for k in 0..BLOCK {
+                let w = u32::from(row[k]);
+                sum[k] += u64::from(w);
+                sumsq[k] += u64::from(w * w);
+            }
+        }
+    }
+    for k in 0..len {
+        stats.add_moments(start + k, count[k], sum[k], sumsq[k], lo[k], hi[k]);
+    }
 }
 
 fn window_pass_impl(
@@ -270,36 +342,7 @@ fn window_pass_impl(
                 .copy_from_slice(&frames[f * PIXELS + start..f * PIXELS + start + len]);
         }
         if let Some(st) = stats.as_deref_mut() {
-            // Moments across the block, lane by lane (vectorises): counts and sums in u32 (a
-            // window of < 65 536 frames cannot overflow them), min/max in the sign-flipped i16
-            // domain so that SSE2's signed min/max apply (0 maps to the neutral element).
-            let mut count = [0u32; BLOCK];
-            let mut sum = [0u32; BLOCK];
-            let mut sumsq = [0u64; BLOCK];
-            let mut min = [i16::MAX; BLOCK];
-            let mut max = [i16::MIN; BLOCK];
-            for f in 0..n {
-                let row = &block[f * BLOCK..(f + 1) * BLOCK];
-                for k in 0..BLOCK {
-                    let v = row[k];
-                    let w = u32::from(v);
-                    count[k] += u32::from(v != 0);
-                    sum[k] += w;
-                    sumsq[k] += u64::from(w * w);
-                    min[k] = min[k].min((v.wrapping_sub(1) ^ 0x8000) as i16);
-                    max[k] = max[k].max((v ^ 0x8000) as i16);
-                }
-            }
-            for k in 0..len {
-                st.add_moments(
-                    start + k,
-                    count[k],
-                    u64::from(sum[k]),
-                    sumsq[k],
-                    ((min[k] as u16) ^ 0x8000).wrapping_add(1),
-                    (max[k] as u16) ^ 0x8000,
-                );
-            }
+            block_moments(&block, n, start, len, st);
         }
         if vector
             && (2..=256).contains(&n)
@@ -414,37 +457,34 @@ mod tests {
     }
 
     /// The fused window pass folds the same per-pixel moments into the statistics as adding
-    /// the frames one by one (zeros, large depths and min/max included).
+    /// the frames one by one (zeros, min/max, narrow ranges summed as deviations and wide
+    /// ranges up to 60 m summed exactly).
     #[test]
     fn window_pass_moments_match_frame_by_frame() {
-        let frames: Vec<DepthFrame> = (0..7u32)
-            .map(|f| {
-                let z = (0..PIXELS as u32)
-                    .map(|i| {
-                        let v = (i.wrapping_mul(2_654_435_761) ^ f.wrapping_mul(40_503)) % 9000;
-                        if v % 13 == 0 { 0 } else { (v + 500) as u16 }
-                    })
-                    .collect();
-                DepthFrame::from_mm(z).unwrap()
-            })
-            .collect();
-        let mut by_frame = PixelStats::new();
-        let mut buffer = Vec::new();
-        for f in &frames {
-            by_frame.push(f);
-            buffer.extend_from_slice(f.as_mm());
+        for (frames_n, span) in [(7u32, 9000u32), (30, 60_000)] {
+            let frames: Vec<DepthFrame> = (0..frames_n)
+                .map(|f| {
+                    let z = (0..PIXELS as u32)
+                        .map(|i| {
+                            let v = (i.wrapping_mul(2_654_435_761) ^ f.wrapping_mul(40_503)) % span;
+                            if v % 13 == 0 { 0 } else { (v + 500) as u16 }
+                        })
+                        .collect();
+                    DepthFrame::from_mm(z).unwrap()
+                })
+                .collect();
+            let mut by_frame = PixelStats::new();
+            let mut buffer = Vec::new();
+            for f in &frames {
+                by_frame.push(f);
+                buffer.extend_from_slice(f.as_mm());
+            }
+            let mut fused = PixelStats::new();
+            let mut acc = EntropyAccumulator::new(frames_n as usize);
+            acc.push_window_with_stats(&buffer, Some(&mut fused));
+            assert_eq!(fused.frames(), frames_n as usize);
+            assert_eq!(format!("{fused:?}"), format!("{by_frame:?}"), "span {span}");
         }
-        let mut fused = PixelStats::new();
-        let mut acc = EntropyAccumulator::new(7);
-        acc.push_window_with_stats(&buffer, Some(&mut fused));
-        assert_eq!(fused.frames(), 7);
-        for i in (0..PIXELS).step_by(97) {
-            assert_eq!(fused.count(i), by_frame.count(i));
-            assert_eq!(fused.mean_mm(i), by_frame.mean_mm(i));
-            assert_eq!(fused.sd_mm(i), by_frame.sd_mm(i));
-        }
-        assert_eq!(fused.mean_frame_mm(), by_frame.mean_frame_mm());
-        assert_eq!(format!("{fused:?}"), format!("{by_frame:?}"));
     }
 
     /// The vectorised block path gives the same entropies as the pixel-by-pixel path, on
