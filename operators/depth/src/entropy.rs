@@ -226,10 +226,12 @@ fn block_entropy(
     if widest >= i32::from(VECTOR_RANGE) {
         return false;
     }
+    // Shifted values are 0..=widest; pairs without data become −1 and never match.
     for p in 0..pairs {
         let diffs = &mut scratch.diffs[p * BLOCK..(p + 1) * BLOCK];
+        let valid = &scratch.valid[p * BLOCK..(p + 1) * BLOCK];
         for k in 0..BLOCK {
-            diffs[k] = diffs[k].wrapping_sub(lo[k]);
+            diffs[k] = if valid[k] != 0 { diffs[k].wrapping_sub(lo[k]) } else { -1 };
         }
     }
     let log2: [f32; 257] = std::array::from_fn(|c| if c == 0 { 0.0 } else { (c as f32).log2() });
@@ -238,9 +240,8 @@ fn block_entropy(
         let mut c = [0i16; BLOCK];
         for p in 0..pairs {
             let diffs = &scratch.diffs[p * BLOCK..(p + 1) * BLOCK];
-            let valid = &scratch.valid[p * BLOCK..(p + 1) * BLOCK];
             for k in 0..BLOCK {
-                c[k] += i16::from(diffs[k] == j) & valid[k];
+                c[k] += i16::from(diffs[k] == j);
             }
         }
         for k in 0..BLOCK {
