@@ -1,6 +1,8 @@
 //! `trigait depth-metrics` end to end: the built binary on the real recordings in
 //! `../shared/data` and on bad input (issue 6 acceptance).
 
+#![allow(clippy::unwrap_used)] // tests may unwrap (STYLE.md §6); helpers outside #[test] fns need saying so
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
