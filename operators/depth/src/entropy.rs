@@ -231,7 +231,11 @@ fn block_entropy(
         let diffs = &mut scratch.diffs[p * BLOCK..(p + 1) * BLOCK];
         let valid = &scratch.valid[p * BLOCK..(p + 1) * BLOCK];
         for k in 0..BLOCK {
-            diffs[k] = if valid[k] != 0 { diffs[k].wrapping_sub(lo[k]) } else { -1 };
+            diffs[k] = if valid[k] != 0 {
+                diffs[k].wrapping_sub(lo[k])
+            } else {
+                -1
+            };
         }
     }
     let log2: [f32; 257] = std::array::from_fn(|c| if c == 0 { 0.0 } else { (c as f32).log2() });
