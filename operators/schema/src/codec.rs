@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use arrow_array::types::{ArrowPrimitiveType, Float64Type};
+use arrow_array::types::{ArrowPrimitiveType, Float64Type, UInt8Type};
 use arrow_array::{
     Array, ArrayRef, FixedSizeListArray, Float64Array, ListArray, PrimitiveArray, StringArray,
     StructArray,
@@ -11,7 +11,7 @@ use arrow_array::{
 use arrow_buffer::OffsetBuffer;
 use arrow_schema::{DataType, Field, FieldRef, Fields};
 use nalgebra::{Matrix3, Point3};
-use trigait_skeleton::{Joint, TrackingState};
+use trigait_skeleton::{Joint, JointSample, TrackingState};
 
 use crate::{Error, Result};
 
@@ -351,4 +351,36 @@ pub(crate) fn no_null_rows(array: &StructArray, path: &str) -> Result<()> {
         }),
         None => Ok(()),
     }
+}
+
+/// Decodes the `joint`, `position_m` and `state` columns that every joint list on the wire
+/// shares, returning the struct array too so a message reads its own extra columns from it.
+pub(crate) fn decode_joint_samples<'a>(
+    array: &'a dyn Array,
+    path: &str,
+) -> Result<(&'a StructArray, Vec<JointSample>)> {
+    let items = Col::new(array, path).structs()?;
+    no_null_rows(items, path)?;
+    let (c, joint_path) = column(items, path, "joint")?;
+    let joints = Col::new(c, &joint_path).primitive::<UInt8Type>()?;
+    let (c, pos_path) = column(items, path, "position_m")?;
+    let positions = Col::new(c, &pos_path).f64_tuples(3)?;
+    let (c, state_path) = column(items, path, "state")?;
+    let states = Col::new(c, &state_path).primitive::<UInt8Type>()?;
+    let mut samples = Vec::with_capacity(items.len());
+    for row in 0..items.len() {
+        let p = positions
+            .get(3 * row..3 * row + 3)
+            .ok_or_else(|| Error::BadLength {
+                field: pos_path.clone(),
+                expected: 3 * items.len(),
+                found: positions.len(),
+            })?;
+        samples.push(JointSample {
+            joint: joint_from_code(value(joints, &joint_path, row)?, &joint_path, row)?,
+            position_in_kinect: Point3::new(p[0], p[1], p[2]),
+            state: state_from_code(value(states, &state_path, row)?, &state_path, row)?,
+        });
+    }
+    Ok((items, samples))
 }

@@ -10,16 +10,14 @@
 
 use std::sync::Arc;
 
-use arrow_array::types::{Float32Type, Int64Type, UInt8Type, UInt64Type};
+use arrow_array::types::{Float32Type, Int64Type, UInt64Type};
 use arrow_array::{Array, ArrayRef, Float32Array, Int64Array, UInt8Array, UInt64Array};
 use arrow_schema::{DataType, Fields};
-use nalgebra::Point3;
 use trigait_skeleton::{JointSample, SkeletonFrame};
 
 use crate::codec::{
-    Builder, Col, column, f64_tuple, field, joint_code, joint_from_code, list_of, list_range,
-    no_null_rows, nullable, optional, point_values, state_code, state_from_code, string, struct_of,
-    value,
+    Builder, Col, column, decode_joint_samples, f64_tuple, field, joint_code, list_of, list_range,
+    no_null_rows, nullable, optional, point_values, state_code, string, struct_of, value,
 };
 use crate::{Error, Message, Result};
 
@@ -166,33 +164,9 @@ impl Message for SkeletonFrameMessage {
 
 /// Decodes the flat joint items of the `joints` list.
 fn decode_joints(array: &dyn Array, path: &str) -> Result<(Vec<JointSample>, Vec<Option<f32>>)> {
-    let items = Col::new(array, path).structs()?;
-    no_null_rows(items, path)?;
-    let (c, joint_path) = column(items, path, "joint")?;
-    let joints = Col::new(c, &joint_path).primitive::<UInt8Type>()?;
-    let (c, pos_path) = column(items, path, "position_m")?;
-    let positions = Col::new(c, &pos_path).f64_tuples(3)?;
-    let (c, state_path) = column(items, path, "state")?;
-    let states = Col::new(c, &state_path).primitive::<UInt8Type>()?;
-    let (c, conf_path) = column(items, path, "confidence")?;
-    let conf = Col::new(c, &conf_path).primitive::<Float32Type>()?;
-
-    let mut samples = Vec::with_capacity(items.len());
-    let mut confidence = Vec::with_capacity(items.len());
-    for row in 0..items.len() {
-        let p = positions
-            .get(3 * row..3 * row + 3)
-            .ok_or_else(|| Error::BadLength {
-                field: pos_path.clone(),
-                expected: 3 * items.len(),
-                found: positions.len(),
-            })?;
-        samples.push(JointSample {
-            joint: joint_from_code(value(joints, &joint_path, row)?, &joint_path, row)?,
-            position_in_kinect: Point3::new(p[0], p[1], p[2]),
-            state: state_from_code(value(states, &state_path, row)?, &state_path, row)?,
-        });
-        confidence.push(optional(conf, row));
-    }
+    let (items, samples) = decode_joint_samples(array, path)?;
+    let (c, extra_path) = column(items, path, "confidence")?;
+    let extra = Col::new(c, &extra_path).primitive::<Float32Type>()?;
+    let confidence = (0..items.len()).map(|row| optional(extra, row)).collect();
     Ok((samples, confidence))
 }
