@@ -50,6 +50,16 @@ pub enum Error {
         /// What was wrong.
         reason: String,
     },
+    /// A Kinect v2 SDK skeleton text line could not be parsed.
+    #[error("{path}:{line}: {reason}")]
+    SdkSkeleton {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What was wrong.
+        reason: String,
+    },
     /// The file holds fewer frames than its header announces.
     #[error("{path}: truncated, header announces {expected} frames but the data holds {got}")]
     Truncated {

@@ -7,6 +7,9 @@
 //! | `ntp_exchange` | `sync ↔ kinect-source` (thesis §6.4.1) | [`NtpExchange`] |
 //! | `aligned_set` | `sync → trilaterate` | [`trigait_sync::AlignedSet`] |
 //! | `fused_pose` | `trilaterate → recorder` | [`FusedPose`] |
+//! | `frame_timing` | `sync → recorder` | [`FrameTiming`] |
+//!
+//! Port ids and metadata keys are in [`ports`].
 //!
 //! Every message is a `StructArray` with **one row per message** (a node sends one row; a
 //! recording may hold many), nested with `List<Struct>` for joints and sensors. Points are
@@ -30,13 +33,16 @@ mod aligned;
 mod codec;
 mod fused;
 mod ntp;
+pub mod ports;
 mod skeleton;
+mod timing;
 
 pub use arrow_array::{Array, ArrayRef};
 pub use arrow_schema::DataType;
 pub use fused::{FusedJoint, FusedPose};
 pub use ntp::NtpExchange;
 pub use skeleton::SkeletonFrameMessage;
+pub use timing::FrameTiming;
 
 /// What can go wrong encoding or decoding a message. `field` is a dotted path from the message
 /// name (`skeleton_frame.joints.state`); `row` indexes the array that field lives in.

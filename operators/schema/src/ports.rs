@@ -1,0 +1,87 @@
+//! Port ids and metadata keys shared by the dataflow's nodes, defined once so a producer and its
+//! consumers cannot drift apart (STYLE.md §6: "defined once as consts").
+//!
+//! | port | node | message | meaning |
+//! |---|---|---|---|
+//! | [`FRAME`] | `kinect-source` out | `skeleton_frame` | one body frame, camera frame, sensor clock |
+//! | [`GROUND_TRUTH`] | `kinect-source` out (simulated) | `skeleton_frame`, many rows | true joints in the **world** frame, `local_stamp_nanos` = true instant on the server clock |
+//! | [`NTP_REPLY`] | `kinect-source` out | `ntp_exchange` | request answered with t2/t3 |
+//! | [`NTP_REQUEST`] | `sync` out | `ntp_exchange` | request with t1, addressed by `sensor_id` |
+//! | [`ALIGNED_SET`] | `sync` out | `aligned_set` | frames of all sensors at one instant |
+//! | [`FRAME_TIMING`] | `sync` out | `frame_timing`, many rows | server-clock placement of frames |
+//! | [`FUSED_POSE`] | `trilaterate` out | `fused_pose` | world joints with covariance |
+//!
+//! `sync` takes one `frame_<sensor>` and one `ntp_<sensor>` input per source, so the sensor set
+//! comes from the graph ([`FRAME_INPUT_PREFIX`], [`NTP_INPUT_PREFIX`]).
+
+/// `kinect-source` output: a `skeleton_frame`.
+pub const FRAME: &str = "frame";
+/// `kinect-source` output: ground truth (simulated sources only).
+pub const GROUND_TRUTH: &str = "ground_truth";
+/// `kinect-source` output: the answered NTP request.
+pub const NTP_REPLY: &str = "ntp_reply";
+/// `kinect-source` input and `sync` output: NTP requests.
+pub const NTP_REQUEST: &str = "ntp_request";
+/// `sync` output: aligned sets.
+pub const ALIGNED_SET: &str = "aligned_set";
+/// `sync` output: frame timings.
+pub const FRAME_TIMING: &str = "frame_timing";
+/// `trilaterate` output: fused poses.
+pub const FUSED_POSE: &str = "fused_pose";
+/// `sync`/`recorder` input id prefix for a source's frames: `frame_k1`.
+pub const FRAME_INPUT_PREFIX: &str = "frame_";
+/// `sync` input id prefix for a source's NTP replies: `ntp_k1`.
+pub const NTP_INPUT_PREFIX: &str = "ntp_";
+/// `recorder` input id prefix for a source's ground truth: `truth_k1`.
+pub const TRUTH_INPUT_PREFIX: &str = "truth_";
+
+/// Metadata key (integer, ns since the UNIX epoch): when the source sent the frame.
+pub const SENT_NANOS: &str = "trigait.sent_nanos";
+/// Metadata key (integer, ns): true capture instant on the server clock (simulated sources).
+pub const TRUE_CAPTURE_NANOS: &str = "trigait.true_capture_nanos";
+/// Metadata key (integer, ns): send time of the newest frame that made a set go out (or the
+/// `sync` clock when a deadline did); forwarded by `trilaterate`, read by `recorder` for the
+/// end-to-end latency.
+pub const TRIGGER_SENT_NANOS: &str = "trigait.trigger_sent_nanos";
+/// Metadata key (integer): how many sensors an aligned set lacks.
+pub const MISSING_SENSORS: &str = "trigait.missing_sensors";
+
+/// The sensor id of a `sync`/`recorder` input id with `prefix` (`frame_k1` → `k1`).
+#[must_use]
+pub fn sensor_of<'a>(input_id: &'a str, prefix: &str) -> Option<&'a str> {
+    input_id.strip_prefix(prefix).filter(|s| !s.is_empty())
+}
+
+/// Sorts sensor ids naturally (`k2` before `k10`), the slot order of the `slots` policy.
+pub fn sort_sensor_ids(ids: &mut [String]) {
+    ids.sort_by(|a, b| natural_key(a).cmp(&natural_key(b)));
+}
+
+fn natural_key(id: &str) -> (String, u64, String) {
+    let digits_at = id.find(|c: char| c.is_ascii_digit()).unwrap_or(id.len());
+    let (head, rest) = id.split_at(digits_at);
+    let digits_end = rest.find(|c: char| !c.is_ascii_digit()).unwrap_or(rest.len());
+    let (digits, tail) = rest.split_at(digits_end);
+    (head.to_owned(), digits.parse().unwrap_or(0), tail.to_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Input ids map to sensor ids; an empty suffix or another prefix is not a sensor.
+    #[test]
+    fn sensor_ids_from_inputs() {
+        assert_eq!(sensor_of("frame_k1", FRAME_INPUT_PREFIX), Some("k1"));
+        assert_eq!(sensor_of("frame_", FRAME_INPUT_PREFIX), None);
+        assert_eq!(sensor_of("ntp_k1", FRAME_INPUT_PREFIX), None);
+    }
+
+    /// Natural order: k1, k2, …, k10, not k1, k10, k2.
+    #[test]
+    fn natural_sort() {
+        let mut ids: Vec<String> = ["k10", "k2", "k1", "a", "k11"].map(String::from).to_vec();
+        sort_sensor_ids(&mut ids);
+        assert_eq!(ids, ["a", "k1", "k2", "k10", "k11"]);
+    }
+}
