@@ -7,8 +7,10 @@ use clap::ValueEnum;
 use eyre::WrapErr;
 use serde::Serialize;
 use trigait_gait::filter::Filter;
-use trigait_gait::{EventKind, EventMethod, Foot, GaitAnalysis, GaitParams, Stat, plot};
-use trigait_skeleton::MotionClip;
+use trigait_gait::{
+    Comparison, EventKind, EventMethod, Foot, GaitAnalysis, GaitParams, Stat, Tolerances, plot,
+};
+use trigait_skeleton::{Joint, MotionClip};
 
 /// Arguments of `trigait gait`.
 #[derive(Debug, clap::Args)]
@@ -32,6 +34,66 @@ pub struct Args {
     /// Fewest complete strides (both feet together) accepted.
     #[arg(long, default_value_t = 2)]
     pub min_strides: usize,
+    /// Also play the walk through the simulated Kinect pipeline (rig, Kinect v2 noise model,
+    /// fusion estimator, 30 Hz) and compare its gait parameters with those of the file.
+    #[arg(long)]
+    pub kinect_sim: bool,
+    /// Rig for `--kinect-sim`: a built-in name (thesis, ring-N) or a rig YAML file.
+    #[arg(long, default_value = "thesis", requires = "kinect_sim")]
+    pub rig: String,
+    /// Noise seed for `--kinect-sim`.
+    #[arg(long, default_value_t = 1, requires = "kinect_sim")]
+    pub seed: u64,
+    /// Filter applied to the simulated Kinect trajectories before their gait analysis.
+    #[arg(long, default_value = "butterworth:6hz", value_parser = parse_filter, requires = "kinect_sim")]
+    pub kinect_filter: Filter,
+}
+
+/// Sample rate of the simulated Kinect pipeline (a Kinect v2 delivers 30 frames/s).
+const KINECT_RATE_HZ: f64 = 30.0;
+
+/// The walk as the simulated Kinect pipeline sees it: `motion` (already on the rig's walkway)
+/// observed by every sensor of `rig` at 30 Hz with the Kinect v2 noise model, and each joint
+/// fused by the maximum-likelihood `fusion` estimator. Joints no sensor reports in a frame, or
+/// that the estimator cannot solve, are gaps.
+pub fn simulate_kinect_pipeline(
+    motion: &MotionClip,
+    rig: &trigait_rig::Rig,
+    seed: u64,
+) -> eyre::Result<MotionClip> {
+    use trigait_trilateration::{Method as Estimator, Params, estimate};
+    let mut joints = Joint::LEGS.to_vec();
+    joints.extend([Joint::FootLeft, Joint::FootRight]);
+    let sim = trigait_sim::Simulator::new(
+        rig,
+        motion.clone(),
+        &joints,
+        &trigait_kinect::NoiseModel::default(),
+    );
+    let mut rngs: Vec<_> = (0..sim.sensors().len())
+        .map(|s| trigait_sim::Simulator::sensor_rng(seed, s))
+        .collect();
+    let params = Params::new(Estimator::Fusion);
+    let frames = (motion.duration_secs() * KINECT_RATE_HZ).floor() as usize + 1;
+    let rows = (0..frames)
+        .map(|k| {
+            let snapshot = sim.snapshot(k as f64 / KINECT_RATE_HZ, &mut rngs);
+            sim.joints()
+                .iter()
+                .map(|joint| {
+                    let (_, observations) = snapshot.observations(&sim, *joint);
+                    estimate(&observations, &params).ok().map(|e| e.position)
+                })
+                .collect()
+        })
+        .collect();
+    MotionClip::new(
+        format!("{} via simulated Kinects ({})", motion.name(), rig.name),
+        KINECT_RATE_HZ,
+        sim.joints().to_vec(),
+        rows,
+    )
+    .wrap_err("assembling the simulated Kinect trajectories")
 }
 
 /// Event detector, as named on the command line.
@@ -65,6 +127,23 @@ struct Report<'a> {
     toe_offs: Counts,
     #[serde(flatten)]
     analysis: &'a GaitAnalysis,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    kinect_sim: Option<KinectSim>,
+}
+
+/// `--kinect-sim` result: the pipeline's own analysis and its difference from the file's.
+#[derive(Debug, Serialize)]
+struct KinectSim {
+    rig: String,
+    seed: u64,
+    filter: String,
+    rate_hz: f64,
+    summary: trigait_gait::Summary,
+    heel_strikes: Counts,
+    /// Estimate − reference (markers) for each mean parameter.
+    comparison: Comparison,
+    tolerances: Tolerances,
+    within_tolerances: bool,
 }
 
 #[derive(Debug, Serialize)]
@@ -102,6 +181,11 @@ pub fn run(args: Args) -> eyre::Result<()> {
     params.min_strides = args.min_strides;
     let analysis = trigait_gait::analyse(&clip, &params)
         .wrap_err_with(|| format!("analysing the gait in {}", args.file.display()))?;
+    let kinect_sim = if args.kinect_sim {
+        Some(run_kinect_sim(&args, &clip, &params, &analysis)?)
+    } else {
+        None
+    };
     if let Some(dir) = &args.plots {
         write_plots(dir, &args.file, &clip, &analysis)?;
     }
@@ -112,12 +196,137 @@ pub fn run(args: Args) -> eyre::Result<()> {
             heel_strikes: Counts::of(&analysis, EventKind::HeelStrike),
             toe_offs: Counts::of(&analysis, EventKind::ToeOff),
             analysis: &analysis,
+            kinect_sim,
         };
         let text = serde_json::to_string_pretty(&report).wrap_err("encoding the JSON report")?;
         print_stdout(&format!("{text}\n"))
     } else {
-        print_stdout(&table(&args, &clip, &analysis))
+        let mut text = table(&args, &clip, &analysis);
+        if let Some(k) = &kinect_sim {
+            text.push_str(&kinect_table(&analysis, k));
+        }
+        print_stdout(&text)
     }
+}
+
+fn run_kinect_sim(
+    args: &Args,
+    clip: &MotionClip,
+    params: &GaitParams,
+    reference: &GaitAnalysis,
+) -> eyre::Result<KinectSim> {
+    let rig = crate::eval::load_rig(Some(&args.rig), None)
+        .wrap_err_with(|| format!("loading rig {:?}", args.rig))?;
+    let motion = clip.placed_on_walkway();
+    let fused = simulate_kinect_pipeline(&motion, &rig, args.seed)?;
+    let fused = args.kinect_filter.apply(&fused).wrap_err_with(|| {
+        format!(
+            "filtering the Kinect trajectories with {}",
+            args.kinect_filter
+        )
+    })?;
+    let analysis = trigait_gait::analyse(&fused, params)
+        .wrap_err("analysing the gait seen by the simulated Kinect pipeline")?;
+    let comparison = trigait_gait::compare(&reference.summary, &analysis.summary);
+    let tolerances = Tolerances::ISSUE_5;
+    Ok(KinectSim {
+        rig: rig.name.clone(),
+        seed: args.seed,
+        filter: args.kinect_filter.to_string(),
+        rate_hz: KINECT_RATE_HZ,
+        heel_strikes: Counts::of(&analysis, EventKind::HeelStrike),
+        summary: analysis.summary,
+        within_tolerances: comparison.within(&tolerances),
+        comparison,
+        tolerances,
+    })
+}
+
+fn kinect_table(reference: &GaitAnalysis, k: &KinectSim) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "\nsimulated Kinect pipeline: rig {}, {:.0} Hz, fusion estimator, filter {}, seed {}",
+        k.rig, k.rate_hz, k.filter, k.seed
+    );
+    let _ = writeln!(
+        out,
+        "{:<24} {:>8} {:>8} {:>10} {:>10}",
+        "parameter", "markers", "kinect", "difference", "tolerance"
+    );
+    let r = &reference.summary;
+    let e = &k.summary;
+    let c = &k.comparison;
+    // (name, markers, kinect, difference, tolerance, digits)
+    type Row<'a> = (&'a str, &'a Stat, &'a Stat, Option<f64>, String, usize);
+    let rows: [Row; 6] = [
+        (
+            "stride length (m)",
+            &r.stride_length_m,
+            &e.stride_length_m,
+            c.stride_length_m,
+            format!("{}", k.tolerances.stride_length_m),
+            3,
+        ),
+        (
+            "cadence (steps/min)",
+            &r.cadence_steps_per_min,
+            &e.cadence_steps_per_min,
+            c.cadence_pct,
+            format!("{} %", k.tolerances.cadence_pct),
+            1,
+        ),
+        (
+            "step width (m)",
+            &r.step_width_m,
+            &e.step_width_m,
+            c.step_width_m,
+            format!("{}", k.tolerances.step_width_m),
+            3,
+        ),
+        (
+            "step length (m)",
+            &r.step_length_m,
+            &e.step_length_m,
+            c.step_length_m,
+            String::new(),
+            3,
+        ),
+        (
+            "speed (m/s)",
+            &r.speed_mps,
+            &e.speed_mps,
+            c.speed_mps,
+            String::new(),
+            3,
+        ),
+        (
+            "stance (%)",
+            &r.stance_pct,
+            &e.stance_pct,
+            c.stance_pct,
+            String::new(),
+            1,
+        ),
+    ];
+    for (name, a, b, d, tol, digits) in rows {
+        let _ = writeln!(
+            out,
+            "{:<24} {:>8} {:>8} {:>10} {:>10}",
+            name,
+            cell(a.mean, digits),
+            cell(b.mean, digits),
+            cell(d, digits),
+            tol
+        );
+    }
+    let _ = writeln!(
+        out,
+        "within issue-5 tolerances (stride 3 cm, cadence 2 %, step width 2 cm): {}",
+        if k.within_tolerances { "yes" } else { "NO" }
+    );
+    out
 }
 
 /// Writes `text` to stdout; a closed pipe (`trigait gait … | head`) ends quietly.

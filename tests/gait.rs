@@ -232,3 +232,176 @@ fn bad_input_is_a_clear_error() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Writes trigait joint CSV text: `rows` of (hip_left, hip_right, knee_left, knee_right,
+/// ankle_left, ankle_right) positions, `None` for a gap.
+fn write_csv(path: &Path, rate_hz: f64, rows: &[[Option<[f64; 3]>; 6]]) {
+    let joints = [
+        "hip_left",
+        "hip_right",
+        "knee_left",
+        "knee_right",
+        "ankle_left",
+        "ankle_right",
+    ];
+    let mut text = String::from("frame,time_s");
+    for j in joints {
+        text.push_str(&format!(",{j}_x_m,{j}_y_m,{j}_z_m"));
+    }
+    text.push('\n');
+    for (f, row) in rows.iter().enumerate() {
+        text.push_str(&format!("{f},{:.6}", f as f64 / rate_hz));
+        for p in row {
+            match p {
+                Some([x, y, z]) => text.push_str(&format!(",{x},{y},{z}")),
+                None => text.push_str(",,,"),
+            }
+        }
+        text.push('\n');
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+fn standing_row(t: f64) -> [Option<[f64; 3]>; 6] {
+    let sway = 0.004 * (2.0 * t).sin();
+    [
+        Some([sway, 0.09, 0.92]),
+        Some([sway, -0.09, 0.92]),
+        Some([0.0, 0.09, 0.5]),
+        Some([0.0, -0.09, 0.5]),
+        Some([0.0, 0.09, 0.08]),
+        Some([0.0, -0.09, 0.08]),
+    ]
+}
+
+/// A standing subject, a clip that is all gaps, and a walk cut to under a second each give a
+/// clear message with exit code 2, never a panic or made-up strides.
+#[test]
+fn standing_gaps_and_short_walks_are_clear_errors() {
+    let dir = std::env::temp_dir().join(format!("trigait-gait-edge-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+
+    let standing = dir.join("standing.csv");
+    let rows: Vec<_> = (0..150).map(|f| standing_row(f as f64 / 30.0)).collect();
+    write_csv(&standing, 30.0, &rows);
+    fails_with(&["gait", standing.to_str().unwrap()], "no straight walking");
+    fails_with(&["gait", standing.to_str().unwrap()], "standing 5.00 s");
+
+    let gaps = dir.join("gaps.csv");
+    let rows: Vec<_> = (0..90)
+        .map(|f| {
+            let mut row = standing_row(f as f64 / 30.0);
+            row[4] = None; // the left ankle was never tracked
+            row
+        })
+        .collect();
+    write_csv(&gaps, 30.0, &rows);
+    fails_with(&["gait", gaps.to_str().unwrap()], "gaps 3.00 s");
+
+    if let Some(path) = trigait_test_data::shared_file("mocap-cmu-07_01/07_01.c3d") {
+        // The first 0.9 s of the CMU walk, via a CSV export: one heel strike per foot at most.
+        let full = dir.join("full.csv");
+        let out = trigait(&[
+            "export",
+            path.to_str().unwrap(),
+            "-o",
+            full.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let text = std::fs::read_to_string(&full).unwrap();
+        let short: Vec<&str> = text.lines().take(1 + 108).collect();
+        let short_path = dir.join("short.csv");
+        std::fs::write(&short_path, short.join("\n") + "\n").unwrap();
+        fails_with(
+            &["gait", short_path.to_str().unwrap()],
+            "complete strides, need at least 2",
+        );
+        // Ten NaN cells of the left ankle (83 ms, mid-stance) are a gap, reported, and bridged:
+        // the strides around it survive.
+        let column = text
+            .lines()
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|c| c == "ankle_left_x_m")
+            .unwrap();
+        let nan: Vec<String> = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| {
+                if (150..160).contains(&i) {
+                    let mut cells: Vec<&str> = l.split(',').collect();
+                    cells[column] = "NaN";
+                    cells.join(",")
+                } else {
+                    l.to_owned()
+                }
+            })
+            .collect();
+        let nan_path = dir.join("nan.csv");
+        std::fs::write(&nan_path, nan.join("\n") + "\n").unwrap();
+        let out = trigait(&["gait", nan_path.to_str().unwrap(), "--json"]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let gaps: Vec<_> = v["excluded"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|p| p["reason"] == "gap")
+            .collect();
+        assert_eq!(gaps.len(), 1, "{v}");
+        assert_eq!(gaps[0]["frames"], 10);
+        assert_eq!(v["heel_strikes"]["left"], 2);
+        assert_eq!(v["heel_strikes"]["right"], 2);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Issue 5 acceptance: the same walk through the simulated Kinect pipeline (thesis rig, Kinect
+/// v2 noise, fusion estimator, 30 Hz, 6 Hz zero-lag Butterworth) gives stride length within
+/// 3 cm, cadence within 2 % and step width within 2 cm of the marker parameters, for five noise
+/// seeds of each walk, and finds the same heel strikes.
+#[test]
+fn issue_5_kinect_pipeline_matches_markers() {
+    for relative in [
+        "mocap-cmu-07_01/07_01.c3d",
+        "mocap-opensim-rajagopal-walk/Rajagopal__motion_capture_walk.trc",
+    ] {
+        let Some(path) = trigait_test_data::shared_file(relative) else {
+            return;
+        };
+        for seed in ["1", "2", "3", "4", "5"] {
+            let v = json(&path, &["--kinect-sim", "--seed", seed]);
+            let k = &v["kinect_sim"];
+            let c = &k["comparison"];
+            let stride = c["stride_length_m"].as_f64().unwrap();
+            let cadence = c["cadence_pct"].as_f64().unwrap();
+            let width = c["step_width_m"].as_f64().unwrap();
+            assert!(
+                stride.abs() <= 0.03,
+                "{relative} seed {seed}: stride {stride} m"
+            );
+            assert!(
+                cadence.abs() <= 2.0,
+                "{relative} seed {seed}: cadence {cadence} %"
+            );
+            assert!(
+                width.abs() <= 0.02,
+                "{relative} seed {seed}: step width {width} m"
+            );
+            assert_eq!(k["within_tolerances"], true);
+            assert_eq!(
+                k["heel_strikes"], v["heel_strikes"],
+                "{relative} seed {seed}"
+            );
+        }
+    }
+}

@@ -70,10 +70,18 @@ impl Fuser {
                     continue;
                 };
                 let p = sample.position_in_kinect;
+                // The limb axis (for the depth noise's incidence term) from the same sensor's
+                // reported neighbouring joints.
+                let limb = trigait_kinect::limb_axis(joint, |j| {
+                    view.joints
+                        .iter()
+                        .find(|s| s.joint == j)
+                        .map(|s| s.position_in_kinect)
+                });
                 observations.push(Observation::new(
                     sensor.world_from_kinect,
                     p,
-                    sensor.covariance_in_kinect(joint, &p, sample.state),
+                    sensor.covariance_in_kinect(joint, &p, sample.state, limb),
                 ));
                 ids.push(id.clone());
             }

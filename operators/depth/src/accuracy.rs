@@ -7,7 +7,7 @@
 //! cone (Fig. 5.2). The target is either given (a fronto-parallel plane at a laser-measured
 //! distance, as in the thesis) or fitted robustly to the mean frame.
 
-use crate::frame::{DepthFrame, PIXELS, Rays, in_elliptical_cone};
+use crate::frame::{DepthFrame, HEIGHT, PIXELS, Rays, WIDTH, in_elliptical_cone};
 use crate::plane::{ImagePlane, fit_image_plane};
 use crate::stats::{Summary, SummaryAcc};
 use crate::{Error, Result};
@@ -63,6 +63,62 @@ impl PixelStats {
             *max = (*max).max(v);
         }
         self.frames += 1;
+    }
+
+    /// Adds a block of raw frames (frame-major, a multiple of 512×424 values). Faster than
+    /// frame-by-frame [`push`](Self::push): each chunk of the per-pixel state stays in cache
+    /// while every frame is added to it.
+    pub fn push_block(&mut self, frames: &[u16]) {
+        const CHUNK: usize = 2048;
+        let n = frames.len() / PIXELS;
+        for start in (0..PIXELS).step_by(CHUNK) {
+            let end = (start + CHUNK).min(PIXELS);
+            for f in 0..n {
+                let z = &frames[f * PIXELS + start..f * PIXELS + end];
+                let lanes = self.count[start..end]
+                    .iter_mut()
+                    .zip(self.sum[start..end].iter_mut())
+                    .zip(self.sumsq[start..end].iter_mut())
+                    .zip(
+                        self.min[start..end]
+                            .iter_mut()
+                            .zip(self.max[start..end].iter_mut()),
+                    )
+                    .zip(z);
+                for ((((count, sum), sumsq), (min, max)), &v) in lanes {
+                    let w = u32::from(v);
+                    *count += u32::from(v != 0);
+                    *sum += u64::from(w);
+                    *sumsq += u64::from(w * w);
+                    *min = (*min).min(if v == 0 { u16::MAX } else { v });
+                    *max = (*max).max(v);
+                }
+            }
+        }
+        self.frames += n;
+    }
+
+    /// Adds one pixel's moments over several frames (the frames are counted by
+    /// [`add_frames`](Self::add_frames)).
+    pub(crate) fn add_moments(
+        &mut self,
+        i: usize,
+        count: u32,
+        sum: u64,
+        sumsq: u64,
+        min: u16,
+        max: u16,
+    ) {
+        self.count[i] += count;
+        self.sum[i] += sum;
+        self.sumsq[i] += sumsq;
+        self.min[i] = self.min[i].min(min);
+        self.max[i] = self.max[i].max(max);
+    }
+
+    /// Counts `n` frames added pixel by pixel with [`add_moments`](Self::add_moments).
+    pub(crate) fn add_frames(&mut self, n: usize) {
+        self.frames += n;
     }
 
     /// Forgets every frame (keeps the allocations).
@@ -253,10 +309,77 @@ pub struct AccuracyMap {
     pub in_cone: Vec<bool>,
 }
 
-/// Computes the accuracy distribution from the per-pixel moments of a sequence.
+/// Depth samples (x, y, z metres) of a mean frame for plane fits, from every `stride`-th
+/// pixel along rows and columns; NaN or 0 = no data.
+#[must_use]
+pub fn plane_samples(mean_mm: &[f32], rays: &Rays, stride: usize) -> Vec<(f64, f64, f64)> {
+    let stride = stride.max(1);
+    let mut out = Vec::with_capacity(PIXELS / (stride * stride) + 1);
+    for v in (0..HEIGHT).step_by(stride) {
+        for u in (0..WIDTH).step_by(stride) {
+            let i = v * WIDTH + u;
+            let m = mean_mm[i];
+            if m.is_finite() && m > 0.0 {
+                let (x, y) = rays.at(i);
+                out.push((x, y, f64::from(m) / 1000.0));
+            }
+        }
+    }
+    out
+}
+
+/// Which pixels lie inside the elliptical cone of `params`.
+#[must_use]
+pub fn cone_mask(rays: &Rays, params: &AccuracyParams) -> Vec<bool> {
+    rays.as_slice()
+        .iter()
+        .map(|&(x, y)| {
+            in_elliptical_cone(x, y, params.cone_horizontal_deg, params.cone_vertical_deg)
+        })
+        .collect()
+}
+
+/// The target plane: fronto-parallel at the given distance, or fitted robustly to the mean
+/// frame. Returns its kind (`"given_distance"` or `"fitted_plane"`) and the plane.
 ///
 /// # Errors
-/// No frame was pushed, no pixel has data, or no target plane could be fitted.
+/// A non-positive distance, or no plane could be fitted.
+pub fn target_plane(
+    mean_mm: &[f32],
+    rays: &Rays,
+    params: &AccuracyParams,
+) -> Result<(&'static str, ImagePlane)> {
+    match params.target_distance_m {
+        Some(d) if d > 0.0 && d.is_finite() => Ok((
+            "given_distance",
+            ImagePlane {
+                a: 0.0,
+                b: 0.0,
+                c: 1.0 / d,
+            },
+        )),
+        Some(d) => Err(Error::BadParameter {
+            name: "target_distance_m",
+            value: d,
+            expected: "a positive distance in metres",
+        }),
+        None => {
+            let fit = fit_image_plane(
+                &plane_samples(mean_mm, rays, 2),
+                params.on_target_tolerance_mm / 1000.0,
+                params.ransac_iterations,
+                params.seed,
+            )?;
+            Ok(("fitted_plane", fit.plane))
+        }
+    }
+}
+
+/// Computes the accuracy distribution from the per-pixel moments of a sequence (finds the
+/// target and the cone itself; see [`accuracy_against`] to reuse them).
+///
+/// # Errors
+/// No frame was pushed, or no target plane could be fitted.
 pub fn accuracy(
     stats: &PixelStats,
     rays: &Rays,
@@ -265,40 +388,31 @@ pub fn accuracy(
     if stats.frames() == 0 {
         return Err(Error::NoFrames);
     }
-    let (target, plane) = match params.target_distance_m {
-        Some(d) if d > 0.0 && d.is_finite() => (
-            "given_distance",
-            ImagePlane {
-                a: 0.0,
-                b: 0.0,
-                c: 1.0 / d,
-            },
-        ),
-        Some(d) => {
-            return Err(Error::BadParameter {
-                name: "target_distance_m",
-                value: d,
-                expected: "a positive distance in metres",
-            });
-        }
-        None => {
-            let samples: Vec<_> = (0..PIXELS)
-                .filter_map(|i| {
-                    let (x, y) = rays.at(i);
-                    stats.mean_mm(i).map(|m| (x, y, m / 1000.0))
-                })
-                .collect();
-            let fit = fit_image_plane(
-                &samples,
-                params.on_target_tolerance_mm / 1000.0,
-                params.ransac_iterations,
-                params.seed,
-            )?;
-            ("fitted_plane", fit.plane)
-        }
-    };
+    let target = target_plane(&stats.mean_frame_mm(), rays, params)?;
+    accuracy_against(stats, rays, &cone_mask(rays, params), target, params)
+}
+
+/// The accuracy distribution against a known target plane with a precomputed cone mask.
+///
+/// # Errors
+/// No frame was pushed, or the cone mask has the wrong size.
+pub fn accuracy_against(
+    stats: &PixelStats,
+    rays: &Rays,
+    in_cone: &[bool],
+    (target, plane): (&'static str, ImagePlane),
+    params: &AccuracyParams,
+) -> Result<(AccuracyReport, AccuracyMap)> {
+    if stats.frames() == 0 {
+        return Err(Error::NoFrames);
+    }
+    if in_cone.len() != PIXELS {
+        return Err(Error::WrongLength {
+            got: in_cone.len(),
+            expected: PIXELS,
+        });
+    }
     let mut zones = vec![None; PIXELS];
-    let mut in_cone = vec![false; PIXELS];
     let (mut depth, mut error) = (SummaryAcc::default(), SummaryAcc::default());
     let (mut bias_sum, mut bias_n) = (0.0, 0u64);
     let (mut sd_sum, mut sd_n) = (0.0, 0usize);
@@ -306,7 +420,6 @@ pub fn accuracy(
     let mut on_target = 0;
     for i in 0..PIXELS {
         let (x, y) = rays.at(i);
-        in_cone[i] = in_elliptical_cone(x, y, params.cone_horizontal_deg, params.cone_vertical_deg);
         let (Some(mean), Some(truth_m)) = (stats.mean_mm(i), plane.depth_m(x, y)) else {
             continue;
         };
@@ -355,7 +468,13 @@ pub fn accuracy(
         zones_in_cone: ZoneShares::from_counts(cone_counts),
         zones_all: ZoneShares::from_counts(all_counts),
     };
-    Ok((report, AccuracyMap { zones, in_cone }))
+    Ok((
+        report,
+        AccuracyMap {
+            zones,
+            in_cone: in_cone.to_vec(),
+        },
+    ))
 }
 
 #[cfg(test)]

@@ -132,58 +132,55 @@ pub enum EdgeClass {
 }
 
 /// Separable window maximum (zeros count as the smallest value) and minimum over valid pixels
-/// (zeros count as `u16::MAX`) with radius `r`.
+/// (zeros count as `u16::MAX`) with radius `r`. Works in the sign-flipped i16 domain, where
+/// SSE2's signed min/max vectorise the shifted element-wise passes.
 fn window_min_max(z: &[u16], r: usize) -> (Vec<u16>, Vec<u16>) {
-    let lo_in: Vec<u16> = z
+    let max_in: Vec<i16> = z.iter().map(|&v| (v ^ 0x8000) as i16).collect();
+    let min_in: Vec<i16> = z
         .iter()
-        .map(|&v| if v == 0 { u16::MAX } else { v })
+        .map(|&v| (v.wrapping_sub(1) ^ 0x8000) as i16)
         .collect();
-    let mut hmax = z.to_vec();
-    let mut hmin = lo_in.clone();
-    // Horizontal pass: shifted element-wise max/min over slices (vectorises).
-    for ((dmax, dmin), (smax, smin)) in hmax
-        .chunks_exact_mut(WIDTH)
-        .zip(hmin.chunks_exact_mut(WIDTH))
-        .zip(z.chunks_exact(WIDTH).zip(lo_in.chunks_exact(WIDTH)))
-    {
+    let hmax = window_extreme(&max_in, r, i16::max);
+    let hmin = window_extreme(&min_in, r, i16::min);
+    let wmax = hmax.iter().map(|&x| (x as u16) ^ 0x8000).collect();
+    let wmin = hmin
+        .iter()
+        .map(|&x| {
+            if x == i16::MAX {
+                u16::MAX
+            } else {
+                ((x as u16) ^ 0x8000) + 1
+            }
+        })
+        .collect();
+    (wmin, wmax)
+}
+
+/// Separable (2r+1)² window extreme by shifted element-wise passes over rows, then rows.
+fn window_extreme(input: &[i16], r: usize, op: impl Fn(i16, i16) -> i16 + Copy) -> Vec<i16> {
+    let mut h = input.to_vec();
+    for (dst, src) in h.chunks_exact_mut(WIDTH).zip(input.chunks_exact(WIDTH)) {
         for o in 1..=r.min(WIDTH - 1) {
-            for (d, s) in dmax[..WIDTH - o].iter_mut().zip(&smax[o..]) {
-                *d = (*d).max(*s);
+            for (d, s) in dst[..WIDTH - o].iter_mut().zip(&src[o..]) {
+                *d = op(*d, *s);
             }
-            for (d, s) in dmax[o..].iter_mut().zip(&smax[..WIDTH - o]) {
-                *d = (*d).max(*s);
-            }
-            for (d, s) in dmin[..WIDTH - o].iter_mut().zip(&smin[o..]) {
-                *d = (*d).min(*s);
-            }
-            for (d, s) in dmin[o..].iter_mut().zip(&smin[..WIDTH - o]) {
-                *d = (*d).min(*s);
+            for (d, s) in dst[o..].iter_mut().zip(&src[..WIDTH - o]) {
+                *d = op(*d, *s);
             }
         }
     }
-    // Vertical pass: row against shifted rows.
-    let mut vmax = hmax.clone();
-    let mut vmin = hmin.clone();
+    let mut v = h.clone();
     for y in 0..HEIGHT {
-        let lo = y.saturating_sub(r);
-        let hi = (y + r).min(HEIGHT - 1);
-        let (dmax, dmin) = (
-            &mut vmax[y * WIDTH..(y + 1) * WIDTH],
-            &mut vmin[y * WIDTH..(y + 1) * WIDTH],
-        );
-        for yy in lo..=hi {
-            if yy == y {
-                continue;
-            }
-            for (d, s) in dmax.iter_mut().zip(&hmax[yy * WIDTH..(yy + 1) * WIDTH]) {
-                *d = (*d).max(*s);
-            }
-            for (d, s) in dmin.iter_mut().zip(&hmin[yy * WIDTH..(yy + 1) * WIDTH]) {
-                *d = (*d).min(*s);
+        let dst = &mut v[y * WIDTH..(y + 1) * WIDTH];
+        for yy in y.saturating_sub(r)..=(y + r).min(HEIGHT - 1) {
+            if yy != y {
+                for (d, s) in dst.iter_mut().zip(&h[yy * WIDTH..(yy + 1) * WIDTH]) {
+                    *d = op(*d, *s);
+                }
             }
         }
     }
-    (vmin, vmax)
+    v
 }
 
 const F: u8 = 1;
@@ -361,6 +358,52 @@ mod tests {
             );
             assert_eq!(r.flying_pixels, 0);
             assert_eq!(classes[150 * WIDTH + 100], EdgeClass::BandZero);
+        }
+    }
+
+    /// The separable window extremes equal a brute-force search (zeros ignored, no valid
+    /// neighbour → u16::MAX for the minimum), including depths above 32 767 mm.
+    #[test]
+    fn window_min_max_matches_brute_force() {
+        let z: Vec<u16> = (0..PIXELS as u32)
+            .map(|i| {
+                let h = i.wrapping_mul(2_654_435_761).rotate_left(11);
+                if h % 5 == 0 { 0 } else { (h % 65_535) as u16 }
+            })
+            .collect();
+        let mut z = z;
+        for x in 0..12 {
+            for y in 0..12 {
+                z[y * WIDTH + x] = 0; // a corner without data
+            }
+        }
+        let r = 2;
+        let (wmin, wmax) = window_min_max(&z, r);
+        for &(x, y) in &[
+            (0usize, 0usize),
+            (0, 0),
+            (1, 1),
+            (40, 7),
+            (511, 423),
+            (300, 200),
+            (13, 0),
+            (255, 2),
+        ] {
+            let (mut lo, mut hi) = (u16::MAX, 0);
+            for yy in y.saturating_sub(r)..=(y + r).min(HEIGHT - 1) {
+                for xx in x.saturating_sub(r)..=(x + r).min(WIDTH - 1) {
+                    let v = z[yy * WIDTH + xx];
+                    hi = hi.max(v);
+                    if v != 0 {
+                        lo = lo.min(v);
+                    }
+                }
+            }
+            assert_eq!(
+                (wmin[y * WIDTH + x], wmax[y * WIDTH + x]),
+                (lo, hi),
+                "({x}, {y})"
+            );
         }
     }
 }

@@ -102,7 +102,7 @@ pub fn fit_image_plane(
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     // Score hypotheses on an evenly strided subset; refit on everything.
-    let stride = (samples.len() / 4000).max(1);
+    let stride = (samples.len() / 2000).max(1);
     let scoring: Vec<_> = samples.iter().step_by(stride).copied().collect();
     let mut best: Option<(usize, ImagePlane)> = None;
     for _ in 0..iterations {

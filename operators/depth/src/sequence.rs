@@ -7,12 +7,16 @@
 //! 0, then one per entropy window by default) and merged; structural noise (§3.5) is measured on
 //! the mean frame, where the temporal noise has averaged out.
 
-use crate::accuracy::{AccuracyMap, AccuracyParams, AccuracyReport, PixelStats, accuracy};
+use crate::accuracy::{
+    AccuracyMap, AccuracyParams, AccuracyReport, PixelStats, accuracy_against, cone_mask,
+    plane_samples, target_plane,
+};
 use crate::edge::{EdgeAccumulator, EdgeClass, EdgeNoise, EdgeParams, edge_noise};
 use crate::entropy::{EntropyAccumulator, EntropyReport};
-use crate::frame::{DepthFrame, Intrinsics, Mask, Rays};
+use crate::frame::{DepthFrame, Intrinsics, Mask, PIXELS, Rays};
+use crate::plane::fit_image_plane;
 use crate::resolution::{Resolution, ResolutionAccumulator, ResolutionParams};
-use crate::structural::{StructuralNoise, StructuralParams, structural_noise};
+use crate::structural::{StructuralNoise, StructuralParams, structural_noise_on_plane};
 use crate::{Error, Result};
 
 /// Settings of every metric.
@@ -88,51 +92,92 @@ pub struct SequenceMaps {
 }
 
 /// Streaming computation of the five metrics.
+///
+/// Frames are buffered for one entropy window and folded into the per-pixel accumulators a
+/// window at a time (cache-friendly); `report` includes a partly filled window.
 #[derive(Debug, Clone)]
 pub struct SequenceAnalyzer {
     params: MetricsParams,
     rays: Rays,
+    in_cone: Vec<bool>,
     mask: Option<Mask>,
     stats: PixelStats,
     entropy: EntropyAccumulator,
     resolution: ResolutionAccumulator,
     edge: EdgeAccumulator,
     last_edge: Option<(Vec<EdgeClass>, Vec<u16>)>,
+    window: Vec<u16>,
+    buffered: usize,
+    frames: usize,
 }
 
 impl SequenceAnalyzer {
-    /// A new analyzer; `mask` marks the object for edge noise (§3.4).
+    /// A new analyzer; `mask` marks the object for edge noise (§3.4). Sets up the camera model
+    /// (rays, cone) once; [`reset`](Self::reset) starts a new sequence without redoing it.
     #[must_use]
     pub fn new(params: MetricsParams, mask: Option<Mask>) -> Self {
+        let rays = params.intrinsics.rays();
+        let in_cone = cone_mask(&rays, &params.accuracy);
+        let entropy = EntropyAccumulator::new(params.entropy_window);
         Self {
-            rays: params.intrinsics.rays(),
+            window: vec![0; entropy.window() * PIXELS],
+            rays,
+            in_cone,
             mask,
             stats: PixelStats::new(),
-            entropy: EntropyAccumulator::new(params.entropy_window),
+            entropy,
             resolution: ResolutionAccumulator::new(params.resolution),
             edge: EdgeAccumulator::default(),
             last_edge: None,
+            buffered: 0,
+            frames: 0,
             params,
         }
+    }
+
+    /// Forgets every frame, keeping the camera model and the allocations.
+    pub fn reset(&mut self) {
+        self.stats.clear();
+        self.entropy.clear();
+        self.resolution = ResolutionAccumulator::new(self.params.resolution);
+        self.edge = EdgeAccumulator::default();
+        self.last_edge = None;
+        self.buffered = 0;
+        self.frames = 0;
     }
 
     /// Frames pushed so far.
     #[must_use]
     pub fn frames(&self) -> usize {
-        self.stats.frames()
+        self.frames
     }
 
     /// Adds one frame.
     pub fn push(&mut self, frame: &DepthFrame) {
-        let index = self.stats.frames();
-        if index % self.params.frame_metric_stride.max(1) == 0 {
+        if self
+            .frames
+            .is_multiple_of(self.params.frame_metric_stride.max(1))
+        {
             self.resolution.push(frame);
             let (e, widths, classes) = edge_noise(frame, self.mask.as_ref(), &self.params.edge);
             self.edge.push(&e, &widths);
-            self.last_edge = Some((classes, frame.as_mm().to_vec()));
+            match &mut self.last_edge {
+                Some((c, z)) => {
+                    *c = classes;
+                    z.copy_from_slice(frame.as_mm());
+                }
+                None => self.last_edge = Some((classes, frame.as_mm().to_vec())),
+            }
         }
-        self.stats.push(frame);
-        self.entropy.push(frame);
+        self.window[self.buffered * PIXELS..(self.buffered + 1) * PIXELS]
+            .copy_from_slice(frame.as_mm());
+        self.buffered += 1;
+        self.frames += 1;
+        if self.buffered * PIXELS == self.window.len() {
+            self.entropy
+                .push_window_with_stats(&self.window, Some(&mut self.stats));
+            self.buffered = 0;
+        }
     }
 
     /// The metrics over the frames so far.
@@ -148,31 +193,65 @@ impl SequenceAnalyzer {
     /// # Errors
     /// [`Error::NoFrames`] before the first frame.
     pub fn report_and_maps(&self) -> Result<(SequenceReport, SequenceMaps)> {
-        if self.stats.frames() == 0 {
+        if self.frames == 0 {
             return Err(Error::NoFrames);
         }
+        let partial = &self.window[..self.buffered * PIXELS];
+        let with_partial;
+        let stats = if self.buffered > 0 {
+            let mut s = self.stats.clone();
+            s.push_block(partial);
+            with_partial = s;
+            &with_partial
+        } else {
+            &self.stats
+        };
         let mut notes = Vec::new();
-        let (acc, acc_map) = match accuracy(&self.stats, &self.rays, &self.params.accuracy) {
+        let mean = stats.mean_frame_mm();
+        // One robust plane fit serves both the accuracy target (when no distance is given)
+        // and the structural residual.
+        let fitted = fit_image_plane(
+            &plane_samples(&mean, &self.rays, 2),
+            self.params.accuracy.on_target_tolerance_mm / 1000.0,
+            self.params.accuracy.ransac_iterations,
+            self.params.accuracy.seed,
+        );
+        let target = match (self.params.accuracy.target_distance_m, &fitted) {
+            (None, Ok(fit)) => Ok(("fitted_plane", fit.plane)),
+            (None, Err(e)) => Err(format!("{e}")),
+            (Some(_), _) => {
+                target_plane(&mean, &self.rays, &self.params.accuracy).map_err(|e| e.to_string())
+            }
+        };
+        let accuracy = target.and_then(|t| {
+            accuracy_against(stats, &self.rays, &self.in_cone, t, &self.params.accuracy)
+                .map_err(|e| e.to_string())
+        });
+        let (acc, acc_map) = match accuracy {
             Ok((r, m)) => (Some(r), Some(m)),
             Err(e) => {
                 notes.push(format!("accuracy: {e}"));
                 (None, None)
             }
         };
-        let (entropy, entropy_map) = self.entropy.finish();
+        let (entropy, entropy_map) = self.entropy.finish_with(partial);
         let entropy = if entropy.windows == 0 {
             notes.push("entropy: needs at least 2 frames".to_owned());
             None
         } else {
             Some(entropy)
         };
-        let mean = self.stats.mean_frame_mm();
-        let (structural, residual) = match structural_noise(
-            &mean,
-            &self.rays,
-            &self.params.intrinsics,
-            &self.params.structural,
-        ) {
+        let structural = fitted.map_err(|e| e.to_string()).and_then(|fit| {
+            structural_noise_on_plane(
+                &mean,
+                &self.rays,
+                &self.params.intrinsics,
+                &fit.plane,
+                &self.params.structural,
+            )
+            .map_err(|e| e.to_string())
+        });
+        let (structural, residual) = match structural {
             Ok((s, r)) => (Some(s), Some(r)),
             Err(e) => {
                 notes.push(format!("structural noise: {e}"));
@@ -181,8 +260,8 @@ impl SequenceAnalyzer {
         };
         let (edge_classes, edge_depth) = self.last_edge.clone().unwrap_or_default();
         let report = SequenceReport {
-            frames: self.stats.frames(),
-            valid_share: self.stats.valid_share(),
+            frames: self.frames,
+            valid_share: stats.valid_share(),
             accuracy: acc,
             resolution: self.resolution.finish(),
             entropy,

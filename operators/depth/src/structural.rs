@@ -10,8 +10,9 @@
 
 use nalgebra::{Matrix3, Matrix5, Vector3, Vector5};
 
+use crate::accuracy::plane_samples;
 use crate::frame::{HEIGHT, Intrinsics, PIXELS, Rays, WIDTH};
-use crate::plane::{ImagePlaneFit, fit_image_plane};
+use crate::plane::{ImagePlane, ImagePlaneFit, fit_image_plane};
 use crate::{Error, Result};
 
 /// Settings of [`structural_noise`].
@@ -175,8 +176,8 @@ impl<'a> RingFitter<'a> {
 }
 
 /// Structural noise of a mean frame (`mean_mm`, NaN = no data) seen through `rays`, profiled
-/// around the principal point of `intrinsics`. Also returns the residual map (mm, NaN off the
-/// plane) for the image.
+/// around the principal point of `intrinsics`: fits the plane robustly, then
+/// [`structural_noise_on_plane`]. Also returns the residual map (mm, NaN off the plane).
 ///
 /// # Errors
 /// The frame has too few valid pixels for a plane, or the profile is too short for the fit.
@@ -186,22 +187,33 @@ pub fn structural_noise(
     intrinsics: &Intrinsics,
     params: &StructuralParams,
 ) -> Result<(StructuralNoise, Vec<f32>)> {
+    let tol_m = params.plane_tolerance_mm / 1000.0;
+    let ImagePlaneFit { plane, .. } = fit_image_plane(
+        &plane_samples(mean_mm, rays, 2),
+        tol_m,
+        params.ransac_iterations,
+        params.seed,
+    )?;
+    structural_noise_on_plane(mean_mm, rays, intrinsics, &plane, params)
+}
+
+/// Structural noise of a mean frame against an already fitted plane.
+///
+/// # Errors
+/// The frame has the wrong size, or the profile is too short for the fit.
+pub fn structural_noise_on_plane(
+    mean_mm: &[f32],
+    rays: &Rays,
+    intrinsics: &Intrinsics,
+    plane: &ImagePlane,
+    params: &StructuralParams,
+) -> Result<(StructuralNoise, Vec<f32>)> {
     if mean_mm.len() != PIXELS {
         return Err(Error::WrongLength {
             got: mean_mm.len(),
             expected: PIXELS,
         });
     }
-    let samples: Vec<_> = (0..PIXELS)
-        .filter(|&i| mean_mm[i].is_finite() && mean_mm[i] > 0.0)
-        .map(|i| {
-            let (x, y) = rays.at(i);
-            (x, y, f64::from(mean_mm[i]) / 1000.0)
-        })
-        .collect();
-    let tol_m = params.plane_tolerance_mm / 1000.0;
-    let ImagePlaneFit { plane, .. } =
-        fit_image_plane(&samples, tol_m, params.ransac_iterations, params.seed)?;
     let bin = params.bin_px.max(0.25);
     let max_r = ((WIDTH * WIDTH + HEIGHT * HEIGHT) as f64).sqrt();
     let nbins = (max_r / bin).ceil() as usize + 1;
@@ -225,7 +237,8 @@ pub fn structural_noise(
         ss += e * e;
         n += 1;
         let (u, v) = ((i % WIDTH) as f64, (i / WIDTH) as f64);
-        let rad = (u - intrinsics.cx).hypot(v - intrinsics.cy);
+        let (du, dv) = (u - intrinsics.cx, v - intrinsics.cy);
+        let rad = (du * du + dv * dv).sqrt();
         let b = ((rad / bin) as usize).min(nbins - 1);
         sum[b] += e;
         cnt[b] += 1;

@@ -1,5 +1,7 @@
 //! Bad input is a clear error naming the file, never a panic (issue 6 acceptance).
 
+#![allow(clippy::unwrap_used)] // tests may unwrap (STYLE.md §6); helpers outside #[test] fns need saying so
+
 use std::path::PathBuf;
 
 use trigait_depth::io::{

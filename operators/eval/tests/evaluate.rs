@@ -1,6 +1,8 @@
 //! The evaluation harness on the embedded walker: statistics are like for like, efficient
 //! estimators sit at their bound, and specs parse as the CLI accepts them.
 
+#![allow(clippy::unwrap_used)] // test helpers outside #[test] functions
+
 use trigait_eval::{EvalConfig, MethodSpec, evaluate};
 use trigait_kinect::NoiseModel;
 use trigait_rig::Rig;

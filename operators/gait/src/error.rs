@@ -35,8 +35,9 @@ pub enum Error {
     /// Too few complete strides for parameters.
     #[error(
         "found {got} complete strides, need at least {need} (heel strikes: {heel_strikes_left} \
-         left, {heel_strikes_right} right, in {walking_secs:.2} s of straight walking); a stride \
-         runs from one heel strike to the next of the same foot"
+         left, {heel_strikes_right} right, in {walking_secs:.2} s of straight walking; excluded: \
+         standing {standing_secs:.2} s, turning {turning_secs:.2} s, gaps {gap_secs:.2} s); a \
+         stride runs from one heel strike to the next of the same foot inside one straight segment"
     )]
     TooFewStrides {
         /// Complete strides found (both feet).
@@ -49,6 +50,12 @@ pub enum Error {
         heel_strikes_right: usize,
         /// Time spent in straight walking segments.
         walking_secs: f64,
+        /// Time excluded as standing.
+        standing_secs: f64,
+        /// Time excluded as turning.
+        turning_secs: f64,
+        /// Time excluded for missing joints (gaps, NaN).
+        gap_secs: f64,
     },
     /// A numeric parameter is out of range.
     #[error("parameter {name} = {value} is invalid: expected {expected}")]

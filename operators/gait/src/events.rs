@@ -256,7 +256,7 @@ fn coordinate_events(
     events: &mut Vec<GaitEvent>,
 ) {
     let d = segment.direction();
-    let relative = |track: &[Option<nalgebra::Point3<f64>>]| -> Option<Vec<f64>> {
+    let relative = |track: &[Option<nalgebra::Point3<f64>>]| -> Vec<Option<f64>> {
         (segment.first_frame..=segment.last_frame)
             .map(|f| {
                 let p = track.get(f).copied().flatten()?;
@@ -267,48 +267,69 @@ fn coordinate_events(
     };
     let separation = params.min_separation_secs * tracks.rate_hz;
     let first = segment.first_frame as f64;
-    if let Some(heel) = relative(&tracks.heel[foot.index()]) {
-        for e in extrema(&heel, true, params.min_prominence_m, separation) {
-            push(
-                events,
-                tracks,
-                segment_index,
-                foot,
-                EventKind::HeelStrike,
-                first + e.index,
-            );
-        }
-    }
-    if let Some(toe) = relative(&tracks.toe[foot.index()]) {
-        for e in extrema(&toe, false, params.min_prominence_m, separation) {
-            push(
-                events,
-                tracks,
-                segment_index,
-                foot,
-                EventKind::ToeOff,
-                first + e.index,
-            );
+    // Each gap-free run on its own: a peak next to a bridged gap is not known to be one.
+    for (kind, maxima, track) in [
+        (EventKind::HeelStrike, true, &tracks.heel[foot.index()]),
+        (EventKind::ToeOff, false, &tracks.toe[foot.index()]),
+    ] {
+        for (offset, values) in runs_of(&relative(track)) {
+            for e in extrema(&values, maxima, params.min_prominence_m, separation) {
+                push(
+                    events,
+                    tracks,
+                    segment_index,
+                    foot,
+                    kind,
+                    first + offset as f64 + e.index,
+                );
+            }
         }
     }
 }
 
-/// Horizontal speed of `track` at each frame of the segment, by central differences
-/// (one-sided at the segment ends).
-fn horizontal_speed(
+/// Maximal runs of present values: (index of the first, the values).
+fn runs_of<T: Copy>(values: &[Option<T>]) -> Vec<(usize, Vec<T>)> {
+    let mut out: Vec<(usize, Vec<T>)> = Vec::new();
+    let mut current: Option<(usize, Vec<T>)> = None;
+    for (i, v) in values.iter().enumerate() {
+        match (v, current.as_mut()) {
+            (Some(v), Some((_, run))) => run.push(*v),
+            (Some(v), None) => current = Some((i, vec![*v])),
+            (None, _) => out.extend(current.take()),
+        }
+    }
+    out.extend(current);
+    out
+}
+
+/// Horizontal speed of `track` over the segment, one run per gap-free stretch: (index of the
+/// run's first frame in the segment, speeds by central differences, one-sided at run ends).
+fn horizontal_speed_runs(
     tracks: &Tracks,
     track: &[Option<nalgebra::Point3<f64>>],
     segment: &WalkingSegment,
-) -> Option<Vec<f64>> {
-    let (a, b) = (segment.first_frame, segment.last_frame);
-    (a..=b)
+) -> Vec<(usize, Vec<f64>)> {
+    let positions: Vec<Option<Vector2<f64>>> = (segment.first_frame..=segment.last_frame)
         .map(|f| {
-            let lo = f.saturating_sub(1).max(a);
-            let hi = (f + 1).min(b);
-            let p0 = track.get(lo).copied().flatten()?;
-            let p1 = track.get(hi).copied().flatten()?;
-            let v: Vector2<f64> = horizontal(&(p1 - p0)) * tracks.rate_hz / (hi - lo).max(1) as f64;
-            Some(v.norm())
+            track
+                .get(f)
+                .copied()
+                .flatten()
+                .map(|p| Vector2::new(p.x, p.y))
+        })
+        .collect();
+    runs_of(&positions)
+        .into_iter()
+        .filter(|(_, run)| run.len() >= 2)
+        .map(|(offset, run)| {
+            let last = run.len() - 1;
+            let speeds = (0..run.len())
+                .map(|i| {
+                    let (lo, hi) = (i.saturating_sub(1), (i + 1).min(last));
+                    (run[hi] - run[lo]).norm() * tracks.rate_hz / (hi - lo) as f64
+                })
+                .collect();
+            (offset, speeds)
         })
         .collect()
 }
@@ -338,7 +359,8 @@ fn swings(speed: &[f64], threshold: f64, peak: f64, merge: usize) -> Vec<(usize,
 }
 
 /// Ghoussayni et al. (2004), horizontal speed against a speed-scaled threshold. A heel strike
-/// needs at least 0.1 s of observed stance after it and a toe off 0.1 s before it.
+/// needs at least 0.1 s of observed stance after it and a toe off 0.1 s before it; each
+/// gap-free run of the segment is treated like a segment of its own.
 fn velocity_events(
     tracks: &Tracks,
     segment: &WalkingSegment,
@@ -362,9 +384,10 @@ fn velocity_events(
     };
     let threshold = params.heel_strike_speed_fraction * segment.speed_mps;
     let peak = params.swing_peak_factor * threshold;
-    if let Some(heel) = horizontal_speed(tracks, &tracks.heel[foot.index()], segment) {
+    let mut previous: Option<f64> = None;
+    for (offset, heel) in horizontal_speed_runs(tracks, &tracks.heel[foot.index()], segment) {
+        let first = first + offset as f64;
         let last = heel.len() - 1;
-        let mut previous: Option<f64> = None;
         let runs = swings(&heel, threshold, peak, merge);
         for (k, &(_, end)) in runs.iter().enumerate() {
             // The stance that follows must be seen for `min_stance` samples (or until the next
@@ -373,7 +396,7 @@ fn velocity_events(
             if end >= last || stance_end - (end + 1) < min_stance {
                 continue;
             }
-            let f = crossing(&heel, threshold, end, end + 1);
+            let f = first + crossing(&heel, threshold, end, end + 1);
             if previous.is_none_or(|p| f - p >= params.min_separation_secs * tracks.rate_hz) {
                 push(
                     events,
@@ -381,7 +404,7 @@ fn velocity_events(
                     segment_index,
                     foot,
                     EventKind::HeelStrike,
-                    first + f,
+                    f,
                 );
                 previous = Some(f);
             }
@@ -389,8 +412,9 @@ fn velocity_events(
     }
     let threshold = params.toe_off_speed_fraction * segment.speed_mps;
     let peak = params.swing_peak_factor * threshold;
-    if let Some(toe) = horizontal_speed(tracks, &tracks.toe[foot.index()], segment) {
-        let mut previous: Option<f64> = None;
+    let mut previous: Option<f64> = None;
+    for (offset, toe) in horizontal_speed_runs(tracks, &tracks.toe[foot.index()], segment) {
+        let first = first + offset as f64;
         let runs = swings(&toe, threshold, peak, merge);
         for (k, &(start, _)) in runs.iter().enumerate() {
             // The stance before must have been seen for `min_stance` samples (or since the
@@ -402,16 +426,9 @@ fn velocity_events(
             if start == 0 || start - stance_start < min_stance {
                 continue;
             }
-            let f = crossing(&toe, threshold, start - 1, start);
+            let f = first + crossing(&toe, threshold, start - 1, start);
             if previous.is_none_or(|p| f - p >= params.min_separation_secs * tracks.rate_hz) {
-                push(
-                    events,
-                    tracks,
-                    segment_index,
-                    foot,
-                    EventKind::ToeOff,
-                    first + f,
-                );
+                push(events, tracks, segment_index, foot, EventKind::ToeOff, f);
                 previous = Some(f);
             }
         }

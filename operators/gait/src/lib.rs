@@ -14,12 +14,22 @@
 //! 1. [`segment_walk`] estimates the walking direction from the pelvis path (hip mid-point, else
 //!    `SpineBase`) and cuts the clip into straight walking segments. Standing (pelvis slower than
 //!    a threshold), turning (heading changing faster than a threshold) and gaps are excluded and
-//!    reported as [`ExcludedPhase`]s, never silently dropped.
+//!    reported as [`ExcludedPhase`]s, never silently dropped. Dropouts up to 0.1 s inside a
+//!    walk are bridged (still reported): no event is placed next to them, but strides may span
+//!    them ([`SegmentParams::max_bridged_gap_secs`]).
 //! 2. [`detect_events`] finds heel strikes and toe offs per foot inside each segment, with either
 //!    the coordinate method of Zeni et al. (2008) or a foot-velocity method in the manner of
 //!    Ghoussayni et al. (2004); see [`EventMethod`].
 //! 3. [`strides`] turns events into per-stride parameters and [`summarise`] into means, standard
 //!    deviations and left/right asymmetry; [`analyse`] runs all of it.
+//!
+//!    **Partial strides at the edges.** A short walk (the CMU and OpenSim clips hold about two
+//!    strides per foot) starts and ends mid-stride. Only turning points seen inside a segment
+//!    become events, so an event whose extremum would lie before the first or after the last
+//!    frame is not guessed; a stride needs two observed heel strikes of the same foot in one
+//!    segment, so the partial strides at either end contribute their events (listed, plotted)
+//!    but no parameters; stance and double support need the stride's toe offs and opposite heel
+//!    strike in order and are left out of the summary for a stride that lacks them.
 //! 4. [`compare`] sets two parameter summaries side by side (markers vs Kinect pipeline).
 //! 5. [`filter`] offers a zero-lag Butterworth low-pass (Winter 2009) and the One-Euro filter
 //!    (Casiez et al. 2012) for noisy trajectories; [`plot`] draws trajectories with events and a

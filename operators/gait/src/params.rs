@@ -357,6 +357,9 @@ pub fn analyse(clip: &MotionClip, params: &GaitParams) -> Result<GaitAnalysis> {
             heel_strikes_left: count(Foot::Left),
             heel_strikes_right: count(Foot::Right),
             walking_secs: segmentation.walking_secs(rate),
+            standing_secs: segmentation.excluded_secs(ExclusionReason::Standing, rate),
+            turning_secs: segmentation.excluded_secs(ExclusionReason::Turning, rate),
+            gap_secs: segmentation.excluded_secs(ExclusionReason::Gap, rate),
         });
     }
     let summary = summarise(&strides);

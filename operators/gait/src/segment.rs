@@ -24,6 +24,12 @@ pub struct SegmentParams {
     pub velocity_window_secs: f64,
     /// Walking runs shorter than this (s) are dropped as too short. Default 0.8 s.
     pub min_segment_secs: f64,
+    /// Gaps (missing joints) up to this long (s) between walking frames do not split a segment.
+    /// No event is detected in or next to such a gap, and the gap is still reported, but a
+    /// stride whose two heel strikes were both seen may span it. Default 0.1 s (3 Kinect
+    /// frames): a tracker dropout in mid-stance should not cost two strides. 0 splits at every
+    /// gap.
+    pub max_bridged_gap_secs: f64,
 }
 
 impl Default for SegmentParams {
@@ -33,6 +39,7 @@ impl Default for SegmentParams {
             max_turn_rate_rad_per_s: 0.6,
             velocity_window_secs: 1.0,
             min_segment_secs: 0.8,
+            max_bridged_gap_secs: 0.1,
         }
     }
 }
@@ -53,7 +60,16 @@ impl SegmentParams {
         positive("min_speed_mps", self.min_speed_mps)?;
         positive("max_turn_rate_rad_per_s", self.max_turn_rate_rad_per_s)?;
         positive("velocity_window_secs", self.velocity_window_secs)?;
-        positive("min_segment_secs", self.min_segment_secs)
+        positive("min_segment_secs", self.min_segment_secs)?;
+        if self.max_bridged_gap_secs.is_finite() && self.max_bridged_gap_secs >= 0.0 {
+            Ok(())
+        } else {
+            Err(Error::BadParameter {
+                name: "max_bridged_gap_secs",
+                value: self.max_bridged_gap_secs,
+                expected: "a non-negative finite number of seconds",
+            })
+        }
     }
 }
 
@@ -151,7 +167,7 @@ impl Segmentation {
         self.segments
             .iter()
             .map(|s| (s.last_frame - s.first_frame + 1) as f64 / rate_hz)
-            .sum()
+            .fold(0.0, |a, b| a + b)
     }
 
     /// Total excluded time for `reason` (s), counted in frames.
@@ -161,7 +177,7 @@ impl Segmentation {
             .iter()
             .filter(|p| p.reason == reason)
             .map(|p| p.frames as f64 / rate_hz)
-            .sum()
+            .fold(0.0, |a, b| a + b) // `sum()` of nothing is −0.0, printed "-0.00"
     }
 
     /// The segment holding `frame`, if any.
@@ -184,8 +200,10 @@ enum Class {
 /// averages out the sway within a stride. A frame is *standing* when that speed is below
 /// [`SegmentParams::min_speed_mps`], *turning* when the heading of that velocity changes faster
 /// than [`SegmentParams::max_turn_rate_rad_per_s`] (measured over half a window), a *gap* when
-/// the pelvis, an ankle or a toe stand-in is missing, and *walking* otherwise. Runs of walking
-/// frames at least [`SegmentParams::min_segment_secs`] long become [`WalkingSegment`]s; the
+/// the pelvis, an ankle or a toe stand-in is missing, and *walking* otherwise. Gaps up to
+/// [`SegmentParams::max_bridged_gap_secs`] between walking frames are bridged (and reported).
+/// Runs of walking frames at least [`SegmentParams::min_segment_secs`] long become
+/// [`WalkingSegment`]s; the
 /// walking direction of each is its pelvis start-to-end direction, so it is estimated, not
 /// assumed, and holds for that straight stretch only.
 ///
@@ -261,41 +279,93 @@ pub(crate) fn segment_tracks(tracks: &Tracks, params: &SegmentParams) -> Segment
         })
         .collect();
 
+    // Short gaps between walking frames are bridged: the walk goes on across them.
+    let max_gap = (params.max_bridged_gap_secs * rate + 1e-9).floor() as usize;
+    let mut bridged = vec![false; n];
+    let mut f = 0;
+    while f < n {
+        if classes[f] != Class::Excluded(ExclusionReason::Gap) {
+            f += 1;
+            continue;
+        }
+        let start = f;
+        while f < n && classes[f] == Class::Excluded(ExclusionReason::Gap) {
+            f += 1;
+        }
+        let walking_around = start > 0
+            && classes[start - 1] == Class::Walking
+            && classes.get(f) == Some(&Class::Walking);
+        if walking_around && f - start <= max_gap {
+            bridged[start..f].iter_mut().for_each(|b| *b = true);
+        }
+    }
+
     let mut segmentation = Segmentation {
         segments: Vec::new(),
         excluded: Vec::new(),
     };
     let min_frames = (params.min_segment_secs * rate).ceil() as usize;
+    let walking_like = |f: usize| classes[f] == Class::Walking || bridged[f];
     let mut f = 0;
     while f < n {
-        let class = classes[f];
         let start = f;
-        while f < n && classes[f] == class {
-            f += 1;
-        }
-        let end = f - 1;
-        let frames = end - start + 1;
-        let reason = match class {
-            Class::Walking if frames >= min_frames.max(2) => {
-                match walking_segment(tracks, start, end) {
-                    Some(segment) => {
-                        segmentation.segments.push(segment);
-                        continue;
-                    }
-                    None => ExclusionReason::Standing,
+        if walking_like(f) {
+            while f < n && walking_like(f) {
+                f += 1;
+            }
+            let end = f - 1;
+            let segment = if end + 1 - start >= min_frames.max(2) {
+                walking_segment(tracks, start, end)
+            } else {
+                None
+            };
+            let walking_reason = if segment.is_some() {
+                None
+            } else if end + 1 - start >= min_frames.max(2) {
+                Some(ExclusionReason::Standing)
+            } else {
+                Some(ExclusionReason::TooShort)
+            };
+            segmentation.segments.extend(segment);
+            // Report the bridged gaps, and the walking itself when it was too short.
+            let mut g = start;
+            while g <= end {
+                let run = g;
+                let gap = bridged[g];
+                while g <= end && bridged[g] == gap {
+                    g += 1;
+                }
+                let reason = if gap {
+                    Some(ExclusionReason::Gap)
+                } else {
+                    walking_reason
+                };
+                if let Some(reason) = reason {
+                    segmentation.excluded.push(phase(reason, run, g - 1, rate));
                 }
             }
-            Class::Walking => ExclusionReason::TooShort,
-            Class::Excluded(reason) => reason,
-        };
-        segmentation.excluded.push(ExcludedPhase {
-            reason,
-            start_secs: start as f64 / rate,
-            end_secs: end as f64 / rate,
-            frames,
-        });
+        } else {
+            let class = classes[f];
+            while f < n && classes[f] == class && !walking_like(f) {
+                f += 1;
+            }
+            if let Class::Excluded(reason) = class {
+                segmentation
+                    .excluded
+                    .push(phase(reason, start, f - 1, rate));
+            }
+        }
     }
     segmentation
+}
+
+fn phase(reason: ExclusionReason, first: usize, last: usize, rate: f64) -> ExcludedPhase {
+    ExcludedPhase {
+        reason,
+        start_secs: first as f64 / rate,
+        end_secs: last as f64 / rate,
+        frames: last + 1 - first,
+    }
 }
 
 fn walking_segment(tracks: &Tracks, first: usize, last: usize) -> Option<WalkingSegment> {

@@ -373,3 +373,54 @@ fn comparison() {
     assert!(c.cadence_pct.unwrap().abs() < 0.5);
     assert!(!c.within(&Tolerances::ISSUE_5));
 }
+
+/// A 0.1 s tracker dropout (3 frames at 30 Hz) in mid-walk is bridged: it is reported as a gap,
+/// but the strides around it survive with the same parameters; with bridging off it splits the
+/// segment and costs strides.
+#[test]
+fn short_dropout_is_bridged() {
+    let walk = Walk {
+        rate_hz: 30.0,
+        duration_secs: 5.0,
+        ..Walk::default()
+    };
+    let (clip, _) = walk.build();
+    let reference = analyse(&clip, &GaitParams::default()).unwrap();
+    let joints = clip.joints().to_vec();
+    let frames: Vec<Vec<Option<Point3<f64>>>> = (0..clip.frame_count())
+        .map(|f| {
+            joints
+                .iter()
+                .map(|j| {
+                    if (75..78).contains(&f) {
+                        None
+                    } else {
+                        clip.position(f, *j)
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let dropout = MotionClip::new("dropout", 30.0, joints, frames).unwrap();
+    let a = analyse(&dropout, &GaitParams::default()).unwrap();
+    assert_eq!(a.segments.len(), 1, "{:?}", a.excluded);
+    assert_eq!(a.excluded.len(), 1);
+    assert_eq!(a.excluded[0].reason, ExclusionReason::Gap);
+    assert_eq!(a.excluded[0].frames, 3);
+    // At most the events right at the dropout are lost.
+    assert!(
+        a.summary.strides + 2 >= reference.summary.strides,
+        "{:?}",
+        a.summary
+    );
+    let c = compare(&reference.summary, &a.summary);
+    assert!(c.within(&Tolerances::ISSUE_5), "{c:?}");
+    // No event is placed inside or next to the gap.
+    assert!(a.events.iter().all(|e| !(74.0..=78.0).contains(&e.frame)));
+
+    let mut strict = GaitParams::default();
+    strict.segments.max_bridged_gap_secs = 0.0;
+    let split = analyse(&dropout, &strict).unwrap();
+    assert_eq!(split.segments.len(), 2);
+    assert!(split.summary.strides < a.summary.strides);
+}

@@ -6,8 +6,8 @@
 //! - [`Intrinsics`]: the 512×424 depth camera with its 70.6°×60° field of view (thesis
 //!   Table 6.1), projection and the field-of-view test.
 //! - [`NoiseModel`]: the noise of a skeleton joint as a range component (along the ray) and a
-//!   lateral component (across it), each growing with distance and with the angle off the
-//!   optical axis, inflated for inferred joints and beyond the 0.5–4.5 m working range.
+//!   lateral component (across it), each growing with distance, with the incidence angle of
+//!   the ray on the limb and with the angle off the optical axis, inflated for inferred joints and beyond the 0.5–4.5 m working range.
 //!   Every default names its source.
 //! - [`occlusion`]: whether one leg hides a joint of the other from a sensor.
 //! - [`Sensor::observe`]: the tracking state of a joint and a noisy report of it.
@@ -22,5 +22,5 @@ pub mod occlusion;
 mod sensor;
 
 pub use intrinsics::Intrinsics;
-pub use noise::NoiseModel;
+pub use noise::{MAX_INCIDENCE_RAD, NoiseModel, limb_axis, limb_incidence_rad, limb_of};
 pub use sensor::{Report, Sensor, Visibility};

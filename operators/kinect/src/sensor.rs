@@ -110,24 +110,28 @@ impl Sensor {
     }
 
     /// The noise covariance (camera space, m²) of `joint` reported at `point_in_kinect` with
-    /// `state`: what a receiver uses to weigh the report.
+    /// `state`, its limb along `limb_axis_in_kinect` (from the same frame's reported joints, see
+    /// [`crate::limb_of`]; `None` if unknown): what a receiver uses to weigh the report.
     #[must_use]
     pub fn covariance_in_kinect(
         &self,
         joint: Joint,
         point_in_kinect: &Point3<f64>,
         state: TrackingState,
+        limb_axis_in_kinect: Option<Vector3<f64>>,
     ) -> Matrix3<f64> {
+        let incidence = crate::limb_incidence_rad(point_in_kinect, limb_axis_in_kinect);
         self.noise
-            .covariance_in_kinect(&self.intrinsics, joint, point_in_kinect, state)
+            .covariance_in_kinect(&self.intrinsics, joint, point_in_kinect, state, incidence)
     }
 
     /// A noisy report of `joint` at `joint_in_world`, drawn from the noise model at the true
-    /// position.
+    /// position, with the joint's limb along `limb_axis_in_world` (for the incidence angle).
     pub fn observe(
         &self,
         joint: Joint,
         joint_in_world: &Point3<f64>,
+        limb_axis_in_world: Option<Vector3<f64>>,
         occluders: &[Capsule],
         rng: &mut impl Rng,
     ) -> Report {
@@ -142,7 +146,9 @@ impl Sensor {
         let truth = self
             .world_from_kinect
             .inverse_transform_point(joint_in_world);
-        let covariance = self.covariance_in_kinect(joint, &truth, state);
+        let limb_axis =
+            limb_axis_in_world.map(|a| self.world_from_kinect.inverse_transform_vector(&a));
+        let covariance = self.covariance_in_kinect(joint, &truth, state, limb_axis);
         let white = Vector3::new(
             rng.sample(StandardNormal),
             rng.sample(StandardNormal),
@@ -201,13 +207,13 @@ mod tests {
         let s = sensor_at(Point3::new(0.0, 0.0, 1.5), Point3::new(3.0, 0.0, 0.5));
         let joint = Point3::new(3.0, 0.2, 0.5);
         let truth = s.world_from_kinect.inverse_transform_point(&joint);
-        let cov = s.covariance_in_kinect(Joint::KneeLeft, &truth, TrackingState::Tracked);
+        let cov = s.covariance_in_kinect(Joint::KneeLeft, &truth, TrackingState::Tracked, None);
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let n = 20_000;
         let mut mean = Vector3::zeros();
         let mut second = Matrix3::zeros();
         for _ in 0..n {
-            let r = s.observe(Joint::KneeLeft, &joint, &[], &mut rng);
+            let r = s.observe(Joint::KneeLeft, &joint, None, &[], &mut rng);
             let e = r.position_in_kinect.unwrap() - truth;
             mean += e / n as f64;
             second += e * e.transpose() / n as f64;
@@ -232,7 +238,7 @@ mod tests {
         let joint = Point3::new(3.0, 0.2, 0.5);
         let draw = |seed| {
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            s.observe(Joint::AnkleLeft, &joint, &[], &mut rng)
+            s.observe(Joint::AnkleLeft, &joint, None, &[], &mut rng)
                 .position_in_kinect
         };
         assert_eq!(draw(5), draw(5));

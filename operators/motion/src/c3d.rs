@@ -132,11 +132,12 @@ pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
 
 /// Writes `clip` as a float-format C3D file with c3dio: one point per joint (labelled by its
 /// snake_case name), millimetres, Z up as our world (`X_SCREEN` +X, `Y_SCREEN` +Z),
-/// `POINT:RATE` and `POINT:SCALE` set for readers that need them. A gap is written as (0, 0, 0) with residual −1, the C3D convention for
-/// an invalid point.
+/// `POINT:RATE`, `POINT:SCALE` and `POINT:DATA_START` set for readers that need them. A gap is written as (0, 0, 0)
+/// flagged invalid (fourth word −1.0), as the C3D spec asks.
 ///
 /// # Errors
-/// [`Error::C3dWrite`] if c3dio refuses (e.g. the extension is not `.c3d`) or fails to write.
+/// [`Error::C3dWrite`] if c3dio refuses (e.g. the extension is not `.c3d`) or fails to write,
+/// [`Error::Io`] if the file cannot be re-read to flag its gaps.
 pub fn write_c3d(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
     let path = path.as_ref();
     let write_error = |reason: String| Error::C3dWrite {
@@ -160,17 +161,18 @@ pub fn write_c3d(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
         )));
     }
     let mut c3d = C3d::new();
+    // The groups c3dio's writer indexes (it panics on a missing one).
     for group in [
         "POINT",
         "ANALOG",
         "FORCE_PLATFORM",
         "EVENT",
         "EVENT_CONTEXT",
-        "MANUFACTURER",
-        "SEG",
-        "TRIAL",
     ] {
-        c3d.parameters.insert_group(group, String::new());
+        // c3dio writes a group's description without the length byte the C3D spec puts before
+        // it; a one-byte description "\0" *is* that byte (length 0), which keeps the parameter
+        // section readable by other C3D readers (checked with the Python `c3d` package).
+        c3d.parameters.insert_group(group, "\0".to_string());
     }
     let rate = clip.rate_hz() as f32;
     let residual_scale = 0.1_f32;
@@ -215,10 +217,88 @@ pub fn write_c3d(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
     points.format = c3dio::DataFormat::Float;
     points.first_frame = 1;
     points.last_frame = frames as u16;
-    let target = PathBuf::from(path);
-    catch_unwind(AssertUnwindSafe(|| c3d.write_path(target).map(|_| ())))
-        .map_err(|_| write_error("c3dio panicked while writing".to_string()))?
-        .map_err(|e| write_error(format!("{e:?}")))
+    // POINT:DATA_START must name the block the data starts in, which c3dio only decides while
+    // writing: write, read the header's pointer back, store it and write again until they agree
+    // (the parameter can push the section over a block boundary at most once).
+    let mut data_start = None;
+    for _ in 0..3 {
+        if let Some(block) = data_start {
+            c3d.parameters
+                .insert("POINT", "DATA_START", Parameter::integer(block));
+        }
+        let target = PathBuf::from(path);
+        catch_unwind(AssertUnwindSafe(|| c3d.write_path(target).map(|_| ())))
+            .map_err(|_| write_error("c3dio panicked while writing".to_string()))?
+            .map_err(|e| write_error(format!("{e:?}")))?;
+        let written = header_data_block(path)?;
+        if data_start == Some(written) {
+            return mark_gaps_invalid(path, clip);
+        }
+        data_start = Some(written);
+    }
+    Err(write_error(
+        "the data start block does not settle; c3dio's layout changed".to_string(),
+    ))
+}
+
+/// Header word 9 of a C3D file c3dio wrote: the 1-based block where the data starts.
+fn header_data_block(path: &Path) -> Result<i16> {
+    let mut header = [0u8; 18];
+    std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut header))
+        .map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    Ok(i16::from_le_bytes([header[16], header[17]]))
+}
+
+/// Rewrites the fourth word of every gap to −1.0, the C3D float-format flag for an invalid point.
+///
+/// c3dio packs that word from a camera mask of 7 flags and a residual byte, so it cannot write a
+/// negative value, and other readers would take (0, 0, 0) with residual 25.5 for a real
+/// sample. The data section of c3dio's file is plain: Intel byte order, no analog, 16 bytes per
+/// point, starting at the block named in header word 9.
+fn mark_gaps_invalid(path: &Path, clip: &MotionClip) -> Result<()> {
+    let joints = clip.joints();
+    let gaps: Vec<usize> = (0..clip.frame_count())
+        .flat_map(|f| (0..joints.len()).map(move |c| (f, c)))
+        .filter(|(f, c)| clip.position(*f, joints[*c]).is_none())
+        .map(|(f, c)| f * joints.len() + c)
+        .collect();
+    if gaps.is_empty() {
+        return Ok(());
+    }
+    let io_error = |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut bytes = std::fs::read(path).map_err(io_error)?;
+    let layout_error = || Error::C3dWrite {
+        path: path.to_path_buf(),
+        reason: "c3dio wrote an unexpected layout; cannot flag gaps as invalid".to_string(),
+    };
+    let parameter_block = usize::from(*bytes.first().ok_or_else(layout_error)?);
+    let processor = parameter_block
+        .checked_sub(1)
+        .and_then(|b| bytes.get(b * 512 + 3))
+        .ok_or_else(layout_error)?;
+    let data_block = usize::from(u16::from_le_bytes([
+        *bytes.get(16).ok_or_else(layout_error)?,
+        *bytes.get(17).ok_or_else(layout_error)?,
+    ]));
+    if *processor != 0x54 || data_block < 2 {
+        return Err(layout_error());
+    }
+    let data_start = (data_block - 1) * 512;
+    for point in gaps {
+        let at = data_start + point * 16 + 12;
+        bytes
+            .get_mut(at..at + 4)
+            .ok_or_else(layout_error)?
+            .copy_from_slice(&(-1.0_f32).to_le_bytes());
+    }
+    std::fs::write(path, bytes).map_err(io_error)
 }
 
 #[cfg(test)]

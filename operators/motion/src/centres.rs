@@ -244,19 +244,23 @@ impl Pelvis {
 }
 
 /// The centre of a joint from its lateral (and maybe medial) marker: the mid-point when both are
-/// present, else `offset` along `medial` made perpendicular to the segment axis toward `proximal`.
+/// present; else `offset` along `medial` (needed then), made perpendicular to the segment axis
+/// toward `proximal` when that centre is known in this frame, used as is when it is not.
 fn centre_from_lateral(
     lateral: Point3<f64>,
     medial_marker: Option<Point3<f64>>,
-    proximal: Point3<f64>,
-    medial: Vector3<f64>,
+    proximal: Option<Point3<f64>>,
+    medial: Option<Vector3<f64>>,
     offset: f64,
 ) -> Option<Point3<f64>> {
     if let Some(m) = medial_marker {
         return Some(nalgebra::center(&lateral, &m));
     }
-    let axis = Unit::try_new(proximal - lateral, 1e-6)?;
-    let direction = Unit::try_new(medial - axis.into_inner() * axis.dot(&medial), 1e-6)?;
+    let medial = medial?;
+    let direction = match proximal.and_then(|p| Unit::try_new(p - lateral, 1e-6)) {
+        Some(axis) => Unit::try_new(medial - axis.into_inner() * axis.dot(&medial), 1e-6)?,
+        None => Unit::try_new(medial, 1e-6)?,
+    };
     Some(lateral + direction.into_inner() * offset)
 }
 
@@ -272,7 +276,10 @@ pub fn joint_centres(markers: &MarkerSet) -> Result<MotionClip> {
 /// Joint centres of a marker set: hips, knees, ankles, `SpineBase`, and feet when toe markers
 /// exist, by the methods in this module's documentation.
 ///
-/// A joint whose markers are missing in a frame is a gap in that frame (nothing is interpolated).
+/// A joint whose markers are missing in a frame is a gap in that frame (nothing is interpolated):
+/// hips need all pelvis markers; a knee or ankle needs its lateral marker and either its medial
+/// marker or the pelvis (for the medial direction). If only the proximal joint centre is
+/// missing, the pelvis axis is used without making it perpendicular to the segment.
 ///
 /// # Errors
 /// [`Error::MissingMarker`] when the file has no marker for a required landmark (ASIS, PSIS or
@@ -333,28 +340,27 @@ pub fn joint_centres_with(markers: &MarkerSet, params: &JointCentreParams) -> Re
             let mut foot = [None; 2];
             for side in [LEFT, RIGHT] {
                 hip[side] = pelvis.map(|p| p.hip_centre(side));
+                let medial = pelvis.map(|p| p.medial(side));
                 let (knee_lat, knee_med) = columns.knee[side];
-                knee[side] = match (pelvis, hip[side], at(f, knee_lat)) {
-                    (Some(p), Some(h), Some(lat)) => centre_from_lateral(
+                knee[side] = at(f, knee_lat).and_then(|lat| {
+                    centre_from_lateral(
                         lat,
                         knee_med.and_then(|m| at(f, m)),
-                        h,
-                        p.medial(side),
+                        hip[side],
+                        medial,
                         knee_offset,
-                    ),
-                    _ => None,
-                };
+                    )
+                });
                 let (ankle_lat, ankle_med) = columns.ankle[side];
-                ankle[side] = match (pelvis, knee[side], at(f, ankle_lat)) {
-                    (Some(p), Some(k), Some(lat)) => centre_from_lateral(
+                ankle[side] = at(f, ankle_lat).and_then(|lat| {
+                    centre_from_lateral(
                         lat,
                         ankle_med.and_then(|m| at(f, m)),
-                        k,
-                        p.medial(side),
+                        knee[side],
+                        medial,
                         ankle_offset,
-                    ),
-                    _ => None,
-                };
+                    )
+                });
                 foot[side] = columns.toe[side].and_then(|t| at(f, t));
             }
             let spine_base = hip[LEFT]
@@ -453,6 +459,50 @@ mod tests {
         assert_relative_eq!(kl.y, (0.157 + 0.03) / 2.0, epsilon = 1e-12);
         let al = clip.position(0, Joint::AnkleLeft).unwrap();
         assert!((al.y - 0.1).abs() < 0.005);
+    }
+
+    /// Gaps propagate only to the joints that need the missing marker.
+    #[test]
+    fn gaps_stay_local() {
+        let set = standing(false);
+        let knee = set.marker("LKNE").unwrap();
+        let asis = set.marker("RASI").unwrap();
+        let frames = (0..3)
+            .map(|f| {
+                (0..set.labels().len())
+                    .map(|c| {
+                        let gap = (f == 1 && c == knee) || (f == 2 && c == asis);
+                        if gap {
+                            None
+                        } else {
+                            set.position_at_column(0, c)
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let gappy = MarkerSet::new("g", 100.0, set.labels().to_vec(), frames).unwrap();
+        let clip = joint_centres(&gappy).unwrap();
+        let full = joint_centres(&set).unwrap();
+        // Frame 1: only the left knee is missing; the ankle falls back to the pelvis axis.
+        assert!(clip.position(1, Joint::KneeLeft).is_none());
+        assert_eq!(
+            clip.position(1, Joint::HipLeft),
+            full.position(0, Joint::HipLeft)
+        );
+        let ankle = clip.position(1, Joint::AnkleLeft).unwrap();
+        assert!((ankle - full.position(0, Joint::AnkleLeft).unwrap()).norm() < 0.005);
+        // Frame 2: no pelvis, so no hips, knees, ankles or spine base; the feet are still there.
+        for j in [
+            Joint::SpineBase,
+            Joint::HipRight,
+            Joint::KneeLeft,
+            Joint::AnkleRight,
+        ] {
+            assert!(clip.position(2, j).is_none(), "{j}");
+        }
+        assert!(clip.position(2, Joint::FootRight).is_some());
+        assert_eq!(clip.missing_frames(Joint::HipLeft), 1);
     }
 
     /// No pelvis markers → a typed error naming what was looked for.

@@ -53,7 +53,8 @@ fn non_empty_fields(line: &str) -> Vec<&str> {
 
 /// Reads a TRC file into a [`MarkerSet`] in metres, Z up.
 ///
-/// Honours the `Units` header (mm, cm or m) and `DataRate`. Empty cells and `NaN` are gaps.
+/// Honours the `Units` (mm, cm or m) and `DataRate` headers, both required. Empty cells and
+/// `NaN` are gaps.
 ///
 /// # Errors
 /// [`Error::Io`] if the file cannot be read; [`Error::Trc`] with the line number for a malformed
@@ -106,7 +107,7 @@ fn parse_trc(path: &Path, text: &str) -> Result<MarkerSet> {
             format!("DataRate must be positive, got {rate_hz}"),
         ));
     }
-    let units = header("Units").unwrap_or("mm");
+    let units = header("Units").ok_or_else(|| trc_error(path, 2, "no Units in the header"))?;
     let scale = metres_per_unit(units).ok_or_else(|| Error::UnknownUnits {
         path: path.to_path_buf(),
         units: units.to_string(),
@@ -359,6 +360,13 @@ Frame#\tTime\tA\t\t\tB\t\t\n\
         assert!(matches!(
             parse_trc(Path::new("x.trc"), &bad),
             Err(Error::Trc { line: 8, .. })
+        ));
+        let no_units = GOOD
+            .replace("\tNumMarkers\tUnits\n", "\tNumMarkers\n")
+            .replace("\t\t m\n", "\n");
+        assert!(matches!(
+            parse_trc(Path::new("x.trc"), &no_units),
+            Err(Error::Trc { line: 2, .. })
         ));
         let furlongs = GOOD.replace(" m\n", " furlong\n");
         assert!(matches!(

@@ -350,3 +350,48 @@ fn bad_parameters_are_errors() {
         })
     ));
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+
+    /// Over the range of healthy adult walking (1.5–1.95 m tall, 80–130 steps/min, steps of
+    /// 0.3–0.42 × height), the walker always succeeds, keeps segments rigid, stays above the
+    /// floor, bends the knee only forward within 0–90°, and moves at step length × cadence.
+    #[test]
+    fn walker_invariants(
+        height in 1.5f64..1.95,
+        cadence in 80f64..130.0,
+        step_ratio in 0.30f64..0.42,
+        stance in 0.55f64..0.65,
+    ) {
+        let p = WalkerParams {
+            cadence_steps_per_min: cadence,
+            step_length_m: step_ratio * height,
+            stance_fraction: stance,
+            ..WalkerParams::for_height(height)
+        };
+        let c = walker(&p, 2.5, 60.0).unwrap();
+        for f in 0..c.frame_count() {
+            for (hip, knee, ankle, foot) in [
+                (Joint::HipLeft, Joint::KneeLeft, Joint::AnkleLeft, Joint::FootLeft),
+                (Joint::HipRight, Joint::KneeRight, Joint::AnkleRight, Joint::FootRight),
+            ] {
+                let g = |j| c.position(f, j).unwrap();
+                let (h, k, a) = (g(hip), g(knee), g(ankle));
+                proptest::prop_assert!(((k - h).norm() - p.thigh_m).abs() < 1e-9);
+                proptest::prop_assert!(((a - k).norm() - p.shank_m).abs() < 1e-9);
+                proptest::prop_assert!(a.z > 0.0 && g(foot).z > 0.0);
+                let flexion = (k - h).angle(&(a - k)).to_degrees();
+                proptest::prop_assert!((0.0..90.0).contains(&flexion), "knee {flexion}");
+                // The knee is in front of the hip–ankle line (it bends forward).
+                let axis = (a - h).normalize();
+                let off = (k - h) - axis * axis.dot(&(k - h));
+                proptest::prop_assert!(off.x >= -1e-9);
+            }
+        }
+        let first = c.position(0, Joint::SpineBase).unwrap();
+        let last = c.position(c.frame_count() - 1, Joint::SpineBase).unwrap();
+        let v = (last.x - first.x) / c.duration_secs();
+        proptest::prop_assert!((v - p.step_length_m * cadence / 60.0).abs() < 1e-9);
+    }
+}

@@ -94,8 +94,24 @@ fn c3d_round_trip() {
     let set = read_c3d(&path).unwrap();
     assert_same(&clip, &set, 1e-4);
 
+    // In the file, a gap's fourth word is −1.0 (the spec's invalid flag; other readers look at
+    // its sign), a sample's is ≥ 0. c3dio alone would write +255.0 there.
+    let bytes = std::fs::read(&path).unwrap();
+    let data_start = (usize::from(u16::from_le_bytes([bytes[16], bytes[17]])) - 1) * 512;
+    let word = |frame: usize, joint: Joint| {
+        let at = data_start + (frame * 25 + joint.index()) * 16 + 12;
+        f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap())
+    };
+    assert_eq!(word(12, Joint::KneeLeft), -1.0);
+    assert_eq!(word(0, Joint::HandTipRight), -1.0);
+    assert!(word(9, Joint::KneeLeft) >= 0.0 && word(0, Joint::HandTipLeft) >= 0.0);
+
     let raw = c3dio::C3d::load_path(path.clone()).unwrap();
     std::fs::remove_file(&path).unwrap();
+    // POINT:DATA_START agrees with the header's pointer.
+    let start = raw.parameters.get("POINT", "DATA_START").unwrap();
+    let start: i16 = start.as_ref().try_into().unwrap();
+    assert_eq!(usize::try_from(start).unwrap(), data_start / 512 + 1);
     assert_eq!(raw.points.labels.len(), 25);
     assert_eq!(raw.points.labels[0].trim(), "spine_base");
     assert_eq!(raw.points.frame_rate, 60.0);
@@ -103,6 +119,11 @@ fn c3d_round_trip() {
     let units: String = raw.points.units.iter().collect();
     assert_eq!(units.trim(), "mm");
     assert_eq!(raw.points.y_screen, Some(['+', 'Z']));
+    // Gaps carry a negative residual (invalid), samples a non-negative one.
+    let knee = Joint::KneeLeft.index();
+    assert!(raw.points[12][knee].residual < 0.0);
+    assert!(raw.points[9][knee].residual >= 0.0);
+    assert!(raw.points[0][Joint::HandTipRight.index()].residual < 0.0);
     let ankle = clip.position(7, Joint::AnkleRight).unwrap() * 1e3;
     let p = raw.points[7][Joint::AnkleRight.index()].point;
     assert!((f64::from(p[0]) - ankle.x).abs() < 0.1);

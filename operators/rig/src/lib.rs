@@ -480,6 +480,20 @@ mod tests {
         );
     }
 
+    /// The shipped example rig file is the built-in thesis rig.
+    #[test]
+    fn example_file_is_the_builtin() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../rigs/thesis.yml");
+        let file = Rig::from_spec(path.to_str().unwrap()).unwrap();
+        let builtin = thesis();
+        assert_eq!(file.name, builtin.name);
+        for (a, b) in file.sensors.iter().zip(&builtin.sensors) {
+            assert_eq!(a.id, b.id);
+            let diff = a.world_from_kinect.to_homogeneous() - b.world_from_kinect.to_homogeneous();
+            assert!(diff.amax() < 1e-12);
+        }
+    }
+
     /// Malformed rigs are errors that name the sensor and the key.
     #[test]
     fn invalid_rigs_name_sensor_and_key() {

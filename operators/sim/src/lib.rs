@@ -24,6 +24,9 @@ use trigait_rig::Rig;
 use trigait_skeleton::{Joint, JointSample, MotionClip, SkeletonFrame, TrackingState};
 use trigait_trilateration::Observation;
 
+/// Kinect v2 depth frame period: 30 frames per second (thesis Table 6.1).
+pub const FRAME_PERIOD_SECS: f64 = 1.0 / 30.0;
+
 /// A rig of modelled sensors watching one motion.
 #[derive(Debug, Clone)]
 pub struct Simulator {
@@ -84,6 +87,30 @@ impl Simulator {
         &self.joints
     }
 
+    /// Capture phase of `sensor` under `seed`, uniform over one frame period: Kinect v2 units run
+    /// free at 30 Hz and cannot be triggered, so each has its own phase (DESIGN.md, Time).
+    #[must_use]
+    pub fn sensor_phase_secs(seed: u64, sensor: usize) -> f64 {
+        use rand::Rng;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0070_6861_7365);
+        rng.set_stream(sensor as u64 + 1);
+        rng.random::<f64>() * FRAME_PERIOD_SECS
+    }
+
+    /// The capture instants `(seq, t_secs)` of `sensor` over the motion: its phase plus whole
+    /// frame periods.
+    pub fn capture_times(
+        &self,
+        seed: u64,
+        sensor: usize,
+    ) -> impl Iterator<Item = (u64, f64)> + use<> {
+        let phase = Self::sensor_phase_secs(seed, sensor);
+        let end = self.motion.duration_secs();
+        (0u64..)
+            .map(move |seq| (seq, phase + seq as f64 * FRAME_PERIOD_SECS))
+            .take_while(move |(_, t)| *t <= end)
+    }
+
     /// An independent, reproducible RNG for `sensor` under `seed`.
     #[must_use]
     pub fn sensor_rng(seed: u64, sensor: usize) -> ChaCha8Rng {
@@ -117,7 +144,8 @@ impl Simulator {
             .map(|joint| {
                 let truth = at(*joint)?;
                 let occluders = occlusion::other_leg(*joint, at);
-                Some(s.observe(*joint, &truth, &occluders, rng))
+                let limb = trigait_kinect::limb_axis(*joint, at);
+                Some(s.observe(*joint, &truth, limb, &occluders, rng))
             })
             .collect()
     }
@@ -178,7 +206,10 @@ impl Snapshot {
     /// of those sensors.
     #[must_use]
     pub fn observations(&self, sim: &Simulator, joint: Joint) -> (Vec<usize>, Vec<Observation>) {
-        self.collect(sim, joint, |_, report| report.position_in_kinect)
+        self.collect(sim, joint, |_, reports, j| {
+            let column = sim.joints.iter().position(|c| *c == j)?;
+            reports.get(column)?.as_ref()?.position_in_kinect
+        })
     }
 
     /// The same sensors' observations placed at the *true* position with the model's covariance
@@ -189,20 +220,23 @@ impl Snapshot {
         sim: &Simulator,
         joint: Joint,
     ) -> (Vec<usize>, Vec<Observation>) {
-        let Some(truth) = self.truth.get(&joint) else {
+        if !self.truth.contains_key(&joint) {
             return (Vec::new(), Vec::new());
-        };
-        self.collect(sim, joint, |sensor, report| {
-            report.position_in_kinect?;
+        }
+        self.collect(sim, joint, |sensor, _, j| {
+            let truth = self.truth.get(&j)?;
             Some(sensor.world_from_kinect.inverse_transform_point(truth))
         })
     }
 
+    /// Observations of `joint` by every sensor that reported it; `position(sensor, reports, j)`
+    /// says where that sensor has joint `j` (reported or true), which also gives the limb axis
+    /// the noise weights depend on.
     fn collect(
         &self,
         sim: &Simulator,
         joint: Joint,
-        position: impl Fn(&Sensor, &Report) -> Option<Point3<f64>>,
+        position: impl Fn(&Sensor, &[Option<Report>], Joint) -> Option<Point3<f64>>,
     ) -> (Vec<usize>, Vec<Observation>) {
         let Some(column) = sim.joints.iter().position(|j| *j == joint) else {
             return (Vec::new(), Vec::new());
@@ -214,10 +248,14 @@ impl Snapshot {
                 continue;
             };
             let state: TrackingState = report.state();
-            let Some(p) = position(sensor, report) else {
+            if report.position_in_kinect.is_none() {
+                continue;
+            }
+            let Some(p) = position(sensor, reports, joint) else {
                 continue;
             };
-            let covariance = sensor.covariance_in_kinect(joint, &p, state);
+            let limb = trigait_kinect::limb_axis(joint, |j| position(sensor, reports, j));
+            let covariance = sensor.covariance_in_kinect(joint, &p, state, limb);
             indices.push(i);
             observations.push(Observation::new(sensor.world_from_kinect, p, covariance));
         }
@@ -269,6 +307,22 @@ mod tests {
             let (_, at_truth) = a.observations_at_truth(&sim, joint);
             assert!((at_truth[0].position_in_world() - a.truth[&joint]).norm() < 1e-12);
         }
+    }
+
+    /// Each sensor captures at 30 Hz from its own phase within one frame period; phases differ
+    /// between sensors and are reproducible per seed.
+    #[test]
+    fn sensors_capture_at_their_own_phase() {
+        let rig = Rig::builtin("thesis").unwrap();
+        let sim = Simulator::new(&rig, standing_clip(), &Joint::LEGS, &NoiseModel::default());
+        let phases: Vec<f64> = (0..3).map(|s| Simulator::sensor_phase_secs(4, s)).collect();
+        assert!(phases.iter().all(|p| (0.0..FRAME_PERIOD_SECS).contains(p)));
+        assert!(phases[0] != phases[1] && phases[1] != phases[2]);
+        assert_eq!(phases[1], Simulator::sensor_phase_secs(4, 1));
+        let times: Vec<(u64, f64)> = sim.capture_times(4, 1).collect();
+        assert_eq!(times.len(), 30, "1 s of motion at 30 Hz");
+        assert_eq!(times[0], (0, phases[1]));
+        assert!((times[29].1 - times[0].1 - 29.0 * FRAME_PERIOD_SECS).abs() < 1e-12);
     }
 
     /// Side-on, the far leg hides behind the near one: k3 in front sees both knees, a sensor

@@ -5,6 +5,8 @@
 //! `cargo bench --release -p trigait-trilateration`; `trigait bench` prints the same solvers'
 //! throughput as ratios against `linear` and against scipy.
 
+#![allow(missing_docs)] // criterion_group! generates an undocumented public function
+
 use std::hint::black_box;
 
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
