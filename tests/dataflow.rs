@@ -15,13 +15,6 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
-const NODES: [&str; 4] = [
-    "trigait-kinect-source-node",
-    "trigait-sync-node",
-    "trigait-trilaterate-node",
-    "trigait-recorder-node",
-];
-
 fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -37,16 +30,14 @@ fn python() -> PathBuf {
     if venv.exists() { venv } else { PathBuf::from("python3") }
 }
 
-/// Builds the four node binaries once (release, like the graphs' `build:` lines).
+/// Builds the node binaries once (release, like the graphs' `build:` lines).
 fn build_nodes() {
     static BUILT: OnceLock<()> = OnceLock::new();
     BUILT.get_or_init(|| {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let mut cmd = Command::new(cargo);
-        cmd.current_dir(workspace()).args(["build", "--release"]);
-        for n in NODES {
-            cmd.args(["-p", n]);
-        }
+        // The same command as the graphs' `build:` lines, so `dora run` finds it done.
+        cmd.current_dir(workspace()).args(["build", "--release", "--workspace"]);
         let status = cmd.status().expect("running cargo build for the nodes");
         assert!(status.success(), "building the node binaries failed");
     });
@@ -103,8 +94,8 @@ fn localise(graph: &str, dir: &Path) -> String {
         .replace("../../shared/data", &format!("{ws}/../shared/data"));
     let lines: Vec<String> = text
         .lines()
-        .map(|l| match l.find("OUT_DIR:") {
-            Some(i) => format!("{}OUT_DIR: {}", &l[..i], dir.join("out").display()),
+        .map(|l| match l.find("OUTPUT_DIR:") {
+            Some(i) => format!("{}OUTPUT_DIR: {}", &l[..i], dir.join("out").display()),
             None => l.to_owned(),
         })
         .collect();

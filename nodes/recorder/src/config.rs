@@ -2,8 +2,8 @@
 //!
 //! | env var | type | default | meaning |
 //! |---|---|---|---|
-//! | `OUT_DIR` | path | `out` | where `summary.json`, `trajectory.txt` and `trajectory.csv` go |
-//! | `RRD` | path or `none` | `<OUT_DIR>/trigait.rrd` | the rerun recording file |
+//! | `OUTPUT_DIR` | path | `out` | where `summary.json`, `trajectory.txt` and `trajectory.csv` go |
+//! | `RRD` | path or `none` | `<OUTPUT_DIR>/trigait.rrd` | the rerun recording file |
 //! | `RERUN_CONNECT` | gRPC url | none | also stream to a running viewer (`rerun+http://127.0.0.1:9876/proxy`); never blocks when none is there |
 //! | `RIG` | `thesis`, `ring-N` or YAML path | `thesis` | sensor poses drawn as axes and frusta |
 //! | `RING_CAPACITY` | integer | `1000` | positions kept per joint (thesis: 1000) for the text/CSV export |
@@ -17,7 +17,7 @@ use eyre::{bail, eyre};
 use trigait_rig::Rig;
 
 /// Env var: output directory.
-pub const OUT_DIR: &str = "OUT_DIR";
+pub const OUTPUT_DIR: &str = "OUTPUT_DIR";
 /// Env var: rrd path.
 pub const RRD: &str = "RRD";
 /// Env var: viewer url.
@@ -52,7 +52,7 @@ impl Config {
 
     /// From any lookup (tests).
     pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
-        let out_dir = PathBuf::from(lookup(OUT_DIR).unwrap_or_else(|| "out".into()));
+        let out_dir = PathBuf::from(lookup(OUTPUT_DIR).unwrap_or_else(|| "out".into()));
         let rrd = match lookup(RRD) {
             None => Some(out_dir.join("trigait.rrd")),
             Some(s) if s.trim() == "none" => None,

@@ -1,6 +1,6 @@
 //! `recorder`: the end of the graph. Logs everything to rerun (an `.rrd` file by default, a
 //! live viewer when `RERUN_CONNECT` is set), keeps the thesis ring buffer, and when the graph
-//! stops writes `trajectory.txt`, `trajectory.csv` and `summary.json` into `OUT_DIR`.
+//! stops writes `trajectory.txt`, `trajectory.csv` and `summary.json` into `OUTPUT_DIR`.
 //! Configuration: [`config`]; entity paths: [`viz`].
 
 mod config;
@@ -34,7 +34,7 @@ fn now_nanos() -> i64 {
 /// The event loop; returns the summary it wrote.
 pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Result<Summary> {
     std::fs::create_dir_all(&config.out_dir)
-        .with_context(|| format!("recorder: creating OUT_DIR={}", config.out_dir.display()))?;
+        .with_context(|| format!("recorder: creating OUTPUT_DIR={}", config.out_dir.display()))?;
     let rec = viz::open(&config)?;
     viz::log_static(&rec, &config.rig).context("recorder: logging the rig")?;
     let mut stats = Stats::default();

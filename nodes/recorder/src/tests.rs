@@ -195,7 +195,7 @@ fn empty_run_writes_outputs() {
     )
     .unwrap();
     let out = dir.to_str().unwrap().to_owned();
-    let config = Config::from_lookup(lookup(&[("OUT_DIR", &out)])).unwrap();
+    let config = Config::from_lookup(lookup(&[("OUTPUT_DIR", &out)])).unwrap();
     let summary = crate::run(config, node, events).unwrap();
     assert_eq!(summary.sets_fused, 0);
     assert_eq!(summary.malformed_inputs, 1);
