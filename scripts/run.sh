@@ -13,7 +13,7 @@ fi
 export PATH="$PWD/.venv/bin:$PATH"
 
 echo "==> building the nodes (release)"
-cargo build --release --workspace
+cargo build --release --workspace --all-targets
 rm -f out/summary.json
 echo "==> dora run dataflow.yml --stop-after ${STOP_AFTER:-15s}"
 dora run dataflow.yml --stop-after "${STOP_AFTER:-15s}"

@@ -60,17 +60,24 @@ impl Config {
         };
         let connect = lookup(RERUN_CONNECT).filter(|s| !s.trim().is_empty());
         if let Some(url) = &connect
-            && !(url.starts_with("rerun+http://") || url.starts_with("rerun+https://") || url.starts_with("rerun://"))
+            && !(url.starts_with("rerun+http://")
+                || url.starts_with("rerun+https://")
+                || url.starts_with("rerun://"))
         {
-            bail!("{NODE}: {RERUN_CONNECT}={url:?} is invalid: expected a rerun gRPC proxy url like rerun+http://127.0.0.1:9876/proxy");
+            bail!(
+                "{NODE}: {RERUN_CONNECT}={url:?} is invalid: expected a rerun gRPC proxy url like rerun+http://127.0.0.1:9876/proxy"
+            );
         }
         let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
-        let rig = Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
+        let rig =
+            Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
         let ring_capacity = match lookup(RING_CAPACITY) {
             None => 1000,
             Some(raw) => match raw.trim().parse::<usize>() {
                 Ok(n) if n > 0 => n,
-                _ => bail!("{NODE}: {RING_CAPACITY}={raw:?} is invalid: expected a positive integer"),
+                _ => {
+                    bail!("{NODE}: {RING_CAPACITY}={raw:?} is invalid: expected a positive integer")
+                }
             },
         };
         Ok(Config {

@@ -60,9 +60,15 @@ pub fn sort_sensor_ids(ids: &mut [String]) {
 fn natural_key(id: &str) -> (String, u64, String) {
     let digits_at = id.find(|c: char| c.is_ascii_digit()).unwrap_or(id.len());
     let (head, rest) = id.split_at(digits_at);
-    let digits_end = rest.find(|c: char| !c.is_ascii_digit()).unwrap_or(rest.len());
+    let digits_end = rest
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(rest.len());
     let (digits, tail) = rest.split_at(digits_end);
-    (head.to_owned(), digits.parse().unwrap_or(0), tail.to_owned())
+    (
+        head.to_owned(),
+        digits.parse().unwrap_or(0),
+        tail.to_owned(),
+    )
 }
 
 #[cfg(test)]

@@ -36,7 +36,8 @@ mod observation;
 pub mod thesis;
 
 pub use estimators::{
-    Diagnostics, Estimate, Method, Params, UnknownMethod, estimate, fusion, geometric, linear, nls, robust,
+    Diagnostics, Estimate, Method, Params, UnknownMethod, estimate, fusion, geometric, linear, nls,
+    robust,
 };
 pub use observation::Observation;
 
