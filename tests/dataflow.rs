@@ -7,6 +7,10 @@
 //! each runs in its own folder under `target/dataflow-tests/`, node binaries are the release
 //! builds of this workspace.
 
+// Test helpers outside `#[test]` functions panic on failure by design (clippy.toml allows it
+// only inside them).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

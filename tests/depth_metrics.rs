@@ -1,6 +1,9 @@
 //! `trigait depth-metrics` end to end: the built binary on the real recordings in
 //! `../shared/data` and on bad input (issue 6 acceptance).
 
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

@@ -1,6 +1,9 @@
 //! `trigait eval` as a user runs it: the acceptance runs of issue 3 on the real mocap
 //! recordings, and clear errors for bad input.
 
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::process::{Command, Output};
 
 use serde_json::Value;

@@ -148,12 +148,12 @@ pub fn back_project(
     let k = &sensor.intrinsics;
     let z = frame.as_mm();
     let mut out = Vec::new();
-    for i in 0..PIXELS {
+    for (i, &zi) in z.iter().enumerate().take(PIXELS) {
         let (u, v) = (i % WIDTH, i / WIDTH);
-        if u % stride != 0 || v % stride != 0 || z[i] == 0 {
+        if u % stride != 0 || v % stride != 0 || zi == 0 {
             continue;
         }
-        let d = f64::from(z[i]) / 1000.0;
+        let d = f64::from(zi) / 1000.0;
         let (x, y) = k.undistort((u as f64 - k.cx) / k.fx, (v as f64 - k.cy) / k.fy);
         out.push(
             sensor

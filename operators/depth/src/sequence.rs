@@ -125,7 +125,7 @@ impl SequenceAnalyzer {
     /// Adds one frame.
     pub fn push(&mut self, frame: &DepthFrame) {
         let index = self.stats.frames();
-        if index % self.params.frame_metric_stride.max(1) == 0 {
+        if index.is_multiple_of(self.params.frame_metric_stride.max(1)) {
             self.resolution.push(frame);
             let (e, widths, classes) = edge_noise(frame, self.mask.as_ref(), &self.params.edge);
             self.edge.push(&e, &widths);

@@ -162,14 +162,14 @@ impl Simulator {
             value: params.noise_sd_mm,
             expected: "a finite standard deviation ≥ 0",
         })?;
-        if !(params.quantisation_mm >= 1.0) {
+        if params.quantisation_mm.is_nan() || params.quantisation_mm < 1.0 {
             return Err(Error::BadParameter {
                 name: "quantisation_mm",
                 value: params.quantisation_mm,
                 expected: "a step of at least 1 mm",
             });
         }
-        if !(params.ring_period_px > 0.0) {
+        if params.ring_period_px.is_nan() || params.ring_period_px <= 0.0 {
             return Err(Error::BadParameter {
                 name: "ring_period_px",
                 value: params.ring_period_px,

@@ -1,5 +1,8 @@
 //! Bad input is a clear error naming the file, never a panic (issue 6 acceptance).
 
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::path::PathBuf;
 
 use trigait_depth::io::{

@@ -1,6 +1,9 @@
 //! The metrics on real Kinect v2 frames from `../shared/data` (skipped with a message when the
 //! data is absent outside CI; a failure under `CI=true`).
 
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use trigait_depth::edge::{EdgeParams, edge_noise};
 use trigait_depth::io::{list_pngs, read_depth_png, read_mask_png};
 use trigait_depth::panoptic::{FloorParams, floor_check, read_panoptic_calibration};

@@ -1,6 +1,9 @@
 //! Simulator round trips (issue 6 acceptance): each metric recovers the property injected into
 //! simulated frames within 10 %.
 
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use trigait_depth::accuracy::{AccuracyParams, Zone};
 use trigait_depth::edge::{EdgeParams, edge_noise};
 use trigait_depth::sim::{Scene, Shape, SimParams, Simulator};

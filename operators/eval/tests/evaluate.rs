@@ -1,6 +1,9 @@
 //! The evaluation harness on the embedded walker: statistics are like for like, efficient
 //! estimators sit at their bound, and specs parse as the CLI accepts them.
 
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use trigait_eval::{EvalConfig, MethodSpec, evaluate};
 use trigait_kinect::NoiseModel;
 use trigait_rig::Rig;

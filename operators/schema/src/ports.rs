@@ -54,7 +54,7 @@ pub fn sensor_of<'a>(input_id: &'a str, prefix: &str) -> Option<&'a str> {
 
 /// Sorts sensor ids naturally (`k2` before `k10`), the slot order of the `slots` policy.
 pub fn sort_sensor_ids(ids: &mut [String]) {
-    ids.sort_by(|a, b| natural_key(a).cmp(&natural_key(b)));
+    ids.sort_by_key(|a| natural_key(a));
 }
 
 fn natural_key(id: &str) -> (String, u64, String) {
