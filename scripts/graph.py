@@ -24,7 +24,7 @@ def source(i: int, args: argparse.Namespace, root: str) -> str:
     lines = "\n".join(f"      {e}" for e in env)
     outputs = "[frame, ntp_reply, ground_truth]" if args.backend == "sim" else "[frame, ntp_reply]"
     return f"""  - id: {sid}
-    build: cargo build --release -p trigait-kinect-source-node
+    build: cargo build --release --workspace --all-targets
     path: {root}target/release/trigait-kinect-source-node
     inputs:
       ntp_request: sync/ntp_request
@@ -63,7 +63,7 @@ def main() -> int:
     for i in range(n):
         out.append(source(i, args, root) + "\n")
     out.append(f"""  - id: sync
-    build: cargo build --release -p trigait-sync-node
+    build: cargo build --release --workspace --all-targets
     path: {root}target/release/trigait-sync-node
     inputs:
       tick: dora/timer/millis/10
@@ -73,7 +73,7 @@ def main() -> int:
       FUSION_RATE_HZ: "30"
 
   - id: trilaterate
-    build: cargo build --release -p trigait-trilaterate-node
+    build: cargo build --release --workspace --all-targets
     path: {root}target/release/trigait-trilaterate-node
     inputs:
       aligned_set: sync/aligned_set
@@ -83,7 +83,7 @@ def main() -> int:
       RIG: {args.rig}
 
   - id: recorder
-    build: cargo build --release -p trigait-recorder-node
+    build: cargo build --release --workspace --all-targets
     path: {root}target/release/trigait-recorder-node
     inputs:
       fused_pose:
@@ -93,7 +93,7 @@ def main() -> int:
         source: sync/frame_timing
         queue_size: 1000
 {rec_inputs}    env:
-      OUT_DIR: {args.out_dir}
+      OUTPUT_DIR: {args.out_dir}
       RIG: {args.rig}
 """)
     sys.stdout.write("".join(out))

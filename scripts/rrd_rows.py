@@ -18,7 +18,7 @@ def main() -> int:
     static: dict[str, int] = {}
     for chunk in RrdReader(sys.argv[1]).stream():
         target = static if chunk.is_static else temporal
-        path = chunk.entity_path
+        path = chunk.entity_path.lstrip("/")
         target[path] = target.get(path, 0) + chunk.num_rows
     json.dump({"temporal": temporal, "static": static}, sys.stdout, indent=1, sort_keys=True)
     print()

@@ -13,8 +13,7 @@ fi
 export PATH="$PWD/.venv/bin:$PATH"
 
 echo "==> building the nodes (release)"
-cargo build --release -p trigait-kinect-source-node -p trigait-sync-node \
-  -p trigait-trilaterate-node -p trigait-recorder-node
+cargo build --release --workspace --all-targets
 rm -f out/summary.json
 echo "==> dora run dataflow.yml --stop-after ${STOP_AFTER:-15s}"
 dora run dataflow.yml --stop-after "${STOP_AFTER:-15s}"

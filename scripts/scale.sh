@@ -11,8 +11,7 @@ if [ ! -x .venv/bin/dora ]; then
   .venv/bin/pip install --quiet dora-rs-cli==1.1.0 rerun-sdk==0.36.3
 fi
 export PATH="$PWD/.venv/bin:$PATH"
-cargo build --release -p trigait-kinect-source-node -p trigait-sync-node \
-  -p trigait-trilaterate-node -p trigait-recorder-node
+cargo build --release --workspace --all-targets
 ROOT="$PWD"
 printf "%8s %8s %10s %10s %9s %8s %10s %12s\n" sensors sets "p50 ms" "p99 ms" dropped incompl "NTP<1ms" "RMSE mm"
 for n in $COUNTS; do

@@ -7,6 +7,10 @@
 //! each runs in its own folder under `target/dataflow-tests/`, node binaries are the release
 //! builds of this workspace.
 
+// Test helpers outside `#[test]` functions panic on failure by design (clippy.toml allows it
+// only inside them).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -15,13 +19,6 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
-const NODES: [&str; 4] = [
-    "trigait-kinect-source-node",
-    "trigait-sync-node",
-    "trigait-trilaterate-node",
-    "trigait-recorder-node",
-];
-
 fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -29,24 +26,60 @@ fn workspace() -> PathBuf {
 /// The dora CLI: `.venv/bin/dora` when the test script made it, else `dora` on PATH.
 fn dora() -> PathBuf {
     let venv = workspace().join(".venv/bin/dora");
-    if venv.exists() { venv } else { PathBuf::from("dora") }
+    if venv.exists() {
+        venv
+    } else {
+        PathBuf::from("dora")
+    }
 }
 
 fn python() -> PathBuf {
     let venv = workspace().join(".venv/bin/python");
-    if venv.exists() { venv } else { PathBuf::from("python3") }
+    if venv.exists() {
+        venv
+    } else {
+        PathBuf::from("python3")
+    }
 }
 
-/// Builds the four node binaries once (release, like the graphs' `build:` lines).
+/// Removes what cargo sets for a test process (`CARGO_PKG_*`, `CARGO_MANIFEST_DIR`, `OUT_DIR`,
+/// …) so the cargo that builds the nodes — here or under `dora run`'s `build:` lines — sees the
+/// environment of a plain `cargo build`: build scripts that watch such variables would
+/// otherwise recompile a large part of the dependency tree.
+fn plain_env(cmd: &mut Command) -> &mut Command {
+    const KEEP: [&str; 8] = [
+        "CARGO_HOME",
+        "CARGO_TARGET_DIR",
+        "CARGO_BUILD_",
+        "CARGO_PROFILE_",
+        "CARGO_REGISTR",
+        "CARGO_NET_",
+        "CARGO_HTTP_",
+        "CARGO_TERM_",
+    ];
+    for (key, _) in std::env::vars_os() {
+        let key = key.to_string_lossy().into_owned();
+        let cargo_set = key.starts_with("CARGO_") && !KEEP.iter().any(|k| key.starts_with(k));
+        if cargo_set || key == "OUT_DIR" || key == "RUST_TEST_THREADS" {
+            cmd.env_remove(&key);
+        }
+    }
+    cmd
+}
+
+/// Builds the node binaries once (release, like the graphs' `build:` lines).
 fn build_nodes() {
     static BUILT: OnceLock<()> = OnceLock::new();
     BUILT.get_or_init(|| {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let mut cmd = Command::new(cargo);
-        cmd.current_dir(workspace()).args(["build", "--release"]);
-        for n in NODES {
-            cmd.args(["-p", n]);
-        }
+        plain_env(&mut cmd);
+        // The same command as the graphs' `build:` lines, so `dora run` finds it done. With
+        // `--all-targets` the dev-dependencies take part in feature unification exactly as in
+        // `cargo test --workspace --release`, so this reuses the test build instead of
+        // compiling dora and rerun a second time with other features.
+        cmd.current_dir(workspace())
+            .args(["build", "--release", "--workspace", "--all-targets"]);
         let status = cmd.status().expect("running cargo build for the nodes");
         assert!(status.success(), "building the node binaries failed");
     });
@@ -86,7 +119,11 @@ impl Run {
         let map = |key: &str| -> BTreeMap<String, u64> {
             v[key]
                 .as_object()
-                .map(|o| o.iter().map(|(k, n)| (k.clone(), n.as_u64().unwrap_or(0))).collect())
+                .map(|o| {
+                    o.iter()
+                        .map(|(k, n)| (k.clone(), n.as_u64().unwrap_or(0)))
+                        .collect()
+                })
                 .unwrap_or_default()
         };
         (map("temporal"), map("static"))
@@ -98,13 +135,19 @@ fn localise(graph: &str, dir: &Path) -> String {
     let ws = workspace();
     let ws = ws.display();
     let mut text = graph
-        .replace("path: ../target/release/", &format!("path: {ws}/target/release/"))
-        .replace("path: target/release/", &format!("path: {ws}/target/release/"))
+        .replace(
+            "path: ../target/release/",
+            &format!("path: {ws}/target/release/"),
+        )
+        .replace(
+            "path: target/release/",
+            &format!("path: {ws}/target/release/"),
+        )
         .replace("../../shared/data", &format!("{ws}/../shared/data"));
     let lines: Vec<String> = text
         .lines()
-        .map(|l| match l.find("OUT_DIR:") {
-            Some(i) => format!("{}OUT_DIR: {}", &l[..i], dir.join("out").display()),
+        .map(|l| match l.find("OUTPUT_DIR:") {
+            Some(i) => format!("{}OUTPUT_DIR: {}", &l[..i], dir.join("out").display()),
             None => l.to_owned(),
         })
         .collect();
@@ -120,7 +163,7 @@ fn spawn_graph(name: &str, graph: &str, stop_after: &str) -> (Child, PathBuf) {
     std::fs::create_dir_all(&dir).expect("creating the test folder");
     let yml = dir.join("graph.yml");
     std::fs::write(&yml, localise(graph, &dir)).expect("writing the graph");
-    let child = Command::new(dora())
+    let child = plain_env(&mut Command::new(dora()))
         .current_dir(&dir)
         .args(["run", "graph.yml", "--stop-after", stop_after])
         .stdout(Stdio::piped())
@@ -186,7 +229,9 @@ fn eval_fusion_rmse() -> f64 {
         &trigait_kinect::NoiseModel::default(),
     );
     let config = trigait_eval::EvalConfig {
-        methods: vec![trigait_eval::MethodSpec::plain(trigait_trilateration::Method::Fusion)],
+        methods: vec![trigait_eval::MethodSpec::plain(
+            trigait_trilateration::Method::Fusion,
+        )],
         trials: 4,
         ..trigait_eval::EvalConfig::default()
     };
@@ -206,20 +251,45 @@ fn check_simulated(run: &Run, sensors: usize) -> Value {
     assert_eq!(ntp.len(), sensors, "{s:#}");
     for (id, n) in ntp {
         assert!(n["frames_checked"].as_u64().unwrap() > 250, "{id}: {n:#}");
-        assert!(f(&n["share_below_1ms"]) >= 0.99, "{id}: NTP error ≥ 1 ms too often: {n:#}");
+        assert!(
+            f(&n["share_below_1ms"]) >= 0.99,
+            "{id}: NTP error ≥ 1 ms too often: {n:#}"
+        );
     }
     assert_eq!(s["frames_in"].as_object().unwrap().len(), sensors);
     let (temporal, statics) = run.rrd_rows();
-    assert_eq!(temporal.get("world/fused").copied(), Some(sets), "{temporal:#?}");
-    assert!(temporal.get("plots/knee_left/x").copied().unwrap_or(0) >= sets * 9 / 10, "{temporal:#?}");
+    assert_eq!(
+        temporal.get("world/fused").copied(),
+        Some(sets),
+        "{temporal:#?}"
+    );
+    assert!(
+        temporal.get("plots/knee_left/x").copied().unwrap_or(0) >= sets * 9 / 10,
+        "{temporal:#?}"
+    );
     for k in 1..=sensors {
         let frames = s["frames_in"][format!("k{k}")].as_u64().unwrap();
-        assert_eq!(temporal.get(&format!("world/sensors/k{k}/joints")).copied(), Some(frames));
-        assert!(temporal.get(&format!("sync/offset_ms/k{k}")).copied().unwrap_or(0) > 200);
-        assert!(statics.contains_key(&format!("world/sensors/k{k}")), "{statics:#?}");
+        assert_eq!(
+            temporal.get(&format!("world/sensors/k{k}/joints")).copied(),
+            Some(frames)
+        );
+        assert!(
+            temporal
+                .get(&format!("sync/offset_ms/k{k}"))
+                .copied()
+                .unwrap_or(0)
+                > 200
+        );
+        assert!(
+            statics.contains_key(&format!("world/sensors/k{k}")),
+            "{statics:#?}"
+        );
         assert!(statics.contains_key(&format!("world/sensors/k{k}/frustum")));
     }
-    assert!(statics.contains_key("world/fused"), "annotation context: {statics:#?}");
+    assert!(
+        statics.contains_key("world/fused"),
+        "annotation context: {statics:#?}"
+    );
     s
 }
 
@@ -233,17 +303,33 @@ fn default_graph_meets_acceptance() {
     let s = check_simulated(&run, 3);
     let rmse = f(&s["rmse_all_m"]);
     let eval = eval_fusion_rmse();
-    eprintln!("dataflow.yml: RMSE {rmse:.4} m vs eval {eval:.4} m; latency {:#}", s["latency_ms"]);
-    assert!(rmse <= 1.2 * eval, "dataflow RMSE {rmse} m vs eval {eval} m");
+    eprintln!(
+        "dataflow.yml: RMSE {rmse:.4} m vs eval {eval:.4} m; latency {:#}",
+        s["latency_ms"]
+    );
+    assert!(
+        rmse <= 1.2 * eval,
+        "dataflow RMSE {rmse} m vs eval {eval} m"
+    );
     assert!(rmse > 0.1 * eval, "suspiciously small RMSE {rmse}");
-    for joint in ["hip_left", "knee_left", "ankle_left", "hip_right", "knee_right", "ankle_right"] {
+    for joint in [
+        "hip_left",
+        "knee_left",
+        "ankle_left",
+        "hip_right",
+        "knee_right",
+        "ankle_right",
+    ] {
         assert!(f(&s["rmse_m"][joint]) < 0.1, "{joint}: {s:#}");
     }
     assert!(f(&s["latency_ms"]["p50"]) <= 5.0, "{:#}", s["latency_ms"]);
     assert!(f(&s["latency_ms"]["p99"]) <= 20.0, "{:#}", s["latency_ms"]);
     let text = std::fs::read_to_string(run.out_dir.join("trajectory.txt")).unwrap();
     let rows = text.lines().filter(|l| !l.starts_with('#')).count();
-    assert!((250..=1000).contains(&rows), "{rows} rows: ring of 1000 per joint");
+    assert!(
+        (250..=1000).contains(&rows),
+        "{rows} rows: ring of 1000 per joint"
+    );
     let csv = std::fs::read_to_string(run.out_dir.join("trajectory.csv")).unwrap();
     assert!(csv.starts_with("stamp_nanos,set_seq,joint,x_m"));
 }
@@ -276,7 +362,11 @@ fn five_sensor_graph_differs_only_in_yaml() {
             .map(|n| {
                 (
                     n["id"].as_str().unwrap().to_owned(),
-                    n["path"].as_str().unwrap().trim_start_matches("../").to_owned(),
+                    n["path"]
+                        .as_str()
+                        .unwrap()
+                        .trim_start_matches("../")
+                        .to_owned(),
                     n["build"].as_str().unwrap().to_owned(),
                 )
             })
@@ -285,16 +375,23 @@ fn five_sensor_graph_differs_only_in_yaml() {
     let three = nodes(&load("dataflow.yml"));
     let five = nodes(&load("dataflows/five-sensors.yml"));
     let binaries = |n: &[(String, String, String)]| {
-        n.iter().map(|(_, p, b)| (p.clone(), b.clone())).collect::<std::collections::BTreeSet<_>>()
+        n.iter()
+            .map(|(_, p, b)| (p.clone(), b.clone()))
+            .collect::<std::collections::BTreeSet<_>>()
     };
     assert_eq!(binaries(&three), binaries(&five));
-    let ids = |n: &[(String, String, String)]| n.iter().map(|(i, _, _)| i.clone()).collect::<Vec<_>>();
+    let ids =
+        |n: &[(String, String, String)]| n.iter().map(|(i, _, _)| i.clone()).collect::<Vec<_>>();
     let mut expected = ids(&three);
     expected.splice(3..3, ["k4".to_owned(), "k5".to_owned()]);
     assert_eq!(ids(&five), expected);
     let run = run_graph("dataflows/five-sensors.yml");
     let s = check_simulated(&run, 5);
-    eprintln!("five sensors: RMSE {:.4} m, latency {:#}", f(&s["rmse_all_m"]), s["latency_ms"]);
+    eprintln!(
+        "five sensors: RMSE {:.4} m, latency {:#}",
+        f(&s["rmse_all_m"]),
+        s["latency_ms"]
+    );
     assert!(f(&s["rmse_all_m"]) < 0.05, "{s:#}");
 }
 
@@ -303,7 +400,11 @@ fn five_sensor_graph_differs_only_in_yaml() {
 fn sixteen_sensor_graph_scales() {
     let run = run_graph("dataflows/sixteen-sensors.yml");
     let s = check_simulated(&run, 16);
-    eprintln!("sixteen sensors: RMSE {:.4} m, latency {:#}", f(&s["rmse_all_m"]), s["latency_ms"]);
+    eprintln!(
+        "sixteen sensors: RMSE {:.4} m, latency {:#}",
+        f(&s["rmse_all_m"]),
+        s["latency_ms"]
+    );
     assert!(f(&s["rmse_all_m"]) < 0.05, "{s:#}");
 }
 
@@ -318,7 +419,13 @@ fn replay_graph_runs() {
     assert!(s["sets_fused"].as_u64().unwrap() > 200, "{s:#}");
     assert!(s["rmse_all_m"].is_null(), "no ground truth in a replay");
     let (temporal, _) = run.rrd_rows();
-    assert!(temporal.get("world/sensors/k2/joints").copied().unwrap_or(0) > 250);
+    assert!(
+        temporal
+            .get("world/sensors/k2/joints")
+            .copied()
+            .unwrap_or(0)
+            > 250
+    );
 }
 
 fn descendants(root: u32) -> Vec<u32> {
@@ -364,26 +471,39 @@ fn killing_a_source_mid_run() {
         if let Some(pid) = found {
             break pid;
         }
-        assert!(start.elapsed() < Duration::from_secs(5), "k2 process not found");
+        assert!(
+            start.elapsed() < Duration::from_secs(5),
+            "k2 process not found"
+        );
         std::thread::sleep(Duration::from_millis(100));
     };
-    let status = Command::new("kill").args(["-9", &victim.to_string()]).status().unwrap();
+    let status = Command::new("kill")
+        .args(["-9", &victim.to_string()])
+        .status()
+        .unwrap();
     assert!(status.success());
     let run = finish(child, dir);
     let s = run.summary();
     let gaps = s["gaps"].as_array().unwrap();
     assert!(
-        gaps.iter().any(|g| g["sensor"] == "k2" && g["until_end"] == true && f(&g["duration_secs"]) > 4.0),
+        gaps.iter()
+            .any(|g| g["sensor"] == "k2" && g["until_end"] == true && f(&g["duration_secs"]) > 4.0),
         "{s:#}\n{}",
         run.log
     );
     assert!(s["incomplete_sets"].as_u64().unwrap() > 100, "{s:#}");
-    assert!(s["sets_fused"].as_u64().unwrap() >= 250, "fusion continued: {s:#}");
+    assert!(
+        s["sets_fused"].as_u64().unwrap() >= 250,
+        "fusion continued: {s:#}"
+    );
     assert!(f(&s["rmse_all_m"]) < 0.1, "{s:#}");
     let frames = s["frames_in"].as_object().unwrap();
     assert!(frames["k2"].as_u64().unwrap() < frames["k1"].as_u64().unwrap() * 2 / 3);
     let (temporal, _) = run.rrd_rows();
-    assert_eq!(temporal.get("world/fused").copied(), s["sets_fused"].as_u64());
+    assert_eq!(
+        temporal.get("world/fused").copied(),
+        s["sets_fused"].as_u64()
+    );
 }
 
 /// A malformed rig file, an unknown policy and an unknown estimator each stop the graph with
@@ -394,13 +514,28 @@ fn config_errors_stop_the_graph_naming_node_and_key() {
     let dir = workspace().join("target/dataflow-tests");
     std::fs::create_dir_all(&dir).unwrap();
     let bad_rig = dir.join("malformed-rig.yml");
-    std::fs::write(&bad_rig, "sensors:\n  - id: k1\n    position: [0, 0, oops]\n").unwrap();
+    std::fs::write(
+        &bad_rig,
+        "sensors:\n  - id: k1\n    position: [0, 0, oops]\n",
+    )
+    .unwrap();
     let cases = [
-        ("bad-policy", graph.replace("POLICY: interpolate", "POLICY: round-robin"), "sync: POLICY=\"round-robin\""),
-        ("bad-method", graph.replace("METHOD: fusion", "METHOD: kalman"), "trilaterate: METHOD=\"kalman\""),
+        (
+            "bad-policy",
+            graph.replace("POLICY: interpolate", "POLICY: round-robin"),
+            "sync: POLICY=\"round-robin\"",
+        ),
+        (
+            "bad-method",
+            graph.replace("METHOD: fusion", "METHOD: kalman"),
+            "trilaterate: METHOD=\"kalman\"",
+        ),
         (
             "bad-rig",
-            graph.replace("      METHOD: fusion\n      RIG: thesis", &format!("      METHOD: fusion\n      RIG: {}", bad_rig.display())),
+            graph.replace(
+                "      METHOD: fusion\n      RIG: thesis",
+                &format!("      METHOD: fusion\n      RIG: {}", bad_rig.display()),
+            ),
             "trilaterate: RIG=",
         ),
     ];
@@ -411,7 +546,14 @@ fn config_errors_stop_the_graph_naming_node_and_key() {
         let started = Instant::now();
         let run = finish(child, dir);
         assert!(!run.success, "{name}: the graph should fail\n{}", run.log);
-        assert!(run.log.contains(expected), "{name}: log lacks {expected:?}:\n{}", run.log);
-        assert!(started.elapsed() < Duration::from_secs(19), "{name}: failed only at stop-after");
+        assert!(
+            run.log.contains(expected),
+            "{name}: log lacks {expected:?}:\n{}",
+            run.log
+        );
+        assert!(
+            started.elapsed() < Duration::from_secs(19),
+            "{name}: failed only at stop-after"
+        );
     }
 }

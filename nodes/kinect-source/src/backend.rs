@@ -106,14 +106,10 @@ impl Source {
     /// Builds the configured backend; errors name the node and the key at fault.
     pub fn new(config: &Config, now: i64) -> eyre::Result<Self> {
         match &config.backend {
-            Backend::Sim { motion, walk_secs } => {
-                Ok(Source::Sim(Box::new(SimSource::new(config, motion, *walk_secs, now)?)))
-            }
-            Backend::Replay {
-                file,
-                fast,
-                looped,
-            } => {
+            Backend::Sim { motion, walk_secs } => Ok(Source::Sim(Box::new(SimSource::new(
+                config, motion, *walk_secs, now,
+            )?))),
+            Backend::Replay { file, fast, looped } => {
                 let frames = trigait_motion::read_sdk_skeletons(file).with_context(|| {
                     format!("kinect-source: {}={}", config::REPLAY_FILE, file.display())
                 })?;
@@ -177,7 +173,11 @@ impl SimSource {
                     config::SENSOR_ID,
                     config.sensor_id,
                     rig.name,
-                    rig.sensors.iter().map(|s| s.id.as_str()).collect::<Vec<_>>().join(", ")
+                    rig.sensors
+                        .iter()
+                        .map(|s| s.id.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 )
             })?;
         let clip = load_lap(motion, walk_secs, config.all_joints)
@@ -220,12 +220,19 @@ impl SimSource {
     fn capture(&mut self, clock: &mut SensorClock) -> Captured {
         let t = self.next_nanos;
         let local = clock.local(t);
-        let frame = self
-            .sim
-            .frame(self.index, self.seq, self.clip_secs(t), local, &mut self.rng);
-        let from = self.last_truth_nanos.map_or(t - self.period_nanos, |l| l + 1);
+        let frame = self.sim.frame(
+            self.index,
+            self.seq,
+            self.clip_secs(t),
+            local,
+            &mut self.rng,
+        );
+        let from = self
+            .last_truth_nanos
+            .map_or(t - self.period_nanos, |l| l + 1);
         let mut truth = Vec::new();
-        let mut g = from.div_euclid(TRUTH_STEP_NANOS) + i64::from(from.rem_euclid(TRUTH_STEP_NANOS) != 0);
+        let mut g =
+            from.div_euclid(TRUTH_STEP_NANOS) + i64::from(from.rem_euclid(TRUTH_STEP_NANOS) != 0);
         while g * TRUTH_STEP_NANOS <= t {
             let at = g * TRUTH_STEP_NANOS;
             truth.push(self.truth_at(at));

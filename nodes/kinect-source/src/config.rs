@@ -160,9 +160,9 @@ impl Config {
                 },
             },
             "replay" => Backend::Replay {
-                file: lookup(REPLAY_FILE)
-                    .map(PathBuf::from)
-                    .ok_or_else(|| eyre!("{NODE}: {REPLAY_FILE} is required with {BACKEND}=replay"))?,
+                file: lookup(REPLAY_FILE).map(PathBuf::from).ok_or_else(|| {
+                    eyre!("{NODE}: {REPLAY_FILE} is required with {BACKEND}=replay")
+                })?,
                 fast: match lookup(REPLAY_SPEED).as_deref().map(str::trim) {
                     None | Some("realtime") => false,
                     Some("fast") => true,
@@ -188,14 +188,23 @@ impl Config {
         }
         let phase: Option<f64> = match lookup(FRAME_PHASE_MILLIS) {
             None => None,
-            Some(_) => Some(finite(FRAME_PHASE_MILLIS, parse(&lookup, FRAME_PHASE_MILLIS, 0.0)?)?),
+            Some(_) => Some(finite(
+                FRAME_PHASE_MILLIS,
+                parse(&lookup, FRAME_PHASE_MILLIS, 0.0)?,
+            )?),
         };
-        let offset = finite(CLOCK_OFFSET_MILLIS, parse(&lookup, CLOCK_OFFSET_MILLIS, 0.0)?)?;
+        let offset = finite(
+            CLOCK_OFFSET_MILLIS,
+            parse(&lookup, CLOCK_OFFSET_MILLIS, 0.0)?,
+        )?;
         let drift = finite(CLOCK_DRIFT_PPM, parse(&lookup, CLOCK_DRIFT_PPM, 0.0)?)?;
         if drift.abs() > 500.0 {
             bail!("{NODE}: {CLOCK_DRIFT_PPM}={drift} is beyond ±500 ppm");
         }
-        let jitter = finite(CLOCK_JITTER_MICROS, parse(&lookup, CLOCK_JITTER_MICROS, 20.0)?)?;
+        let jitter = finite(
+            CLOCK_JITTER_MICROS,
+            parse(&lookup, CLOCK_JITTER_MICROS, 20.0)?,
+        )?;
         if jitter < 0.0 {
             bail!("{NODE}: {CLOCK_JITTER_MICROS}={jitter} must be ≥ 0");
         }

@@ -89,7 +89,10 @@ pub fn run(
                         Ok(r) => r,
                         Err(e) => {
                             counters.malformed += 1;
-                            eprintln!("WARN kinect-source {}: skipping a malformed ntp_request: {e}", config.sensor_id);
+                            eprintln!(
+                                "WARN kinect-source {}: skipping a malformed ntp_request: {e}",
+                                config.sensor_id
+                            );
                             continue;
                         }
                     };
@@ -102,11 +105,17 @@ pub fn run(
                         .context("kinect-source: sending ntp_reply")?;
                     counters.ntp_answered += 1;
                 }
-                other => eprintln!("WARN kinect-source {}: ignoring unknown input {other:?}", config.sensor_id),
+                other => eprintln!(
+                    "WARN kinect-source {}: ignoring unknown input {other:?}",
+                    config.sensor_id
+                ),
             },
             Event::Stop(_) | Event::InputClosed { .. } => {}
             Event::Error(e) if e.contains("Timeout") || e.contains("timed out") => {}
-            Event::Error(e) => eprintln!("WARN kinect-source {}: event stream error: {e}", config.sensor_id),
+            Event::Error(e) => eprintln!(
+                "WARN kinect-source {}: event stream error: {e}",
+                config.sensor_id
+            ),
             _ => {}
         }
     }
@@ -124,7 +133,10 @@ fn send_capture(
     captured: Captured,
 ) -> eyre::Result<()> {
     let mut params = MetadataParameters::default();
-    params.insert(ports::SENT_NANOS.to_owned(), Parameter::Integer(now_nanos()));
+    params.insert(
+        ports::SENT_NANOS.to_owned(),
+        Parameter::Integer(now_nanos()),
+    );
     if let Some(t) = captured.true_nanos {
         params.insert(ports::TRUE_CAPTURE_NANOS.to_owned(), Parameter::Integer(t));
     }

@@ -27,7 +27,10 @@ fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
 }
 
 fn chain(err: &eyre::Report) -> String {
-    err.chain().map(ToString::to_string).collect::<Vec<_>>().join(": ")
+    err.chain()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
 }
 
 /// Only SENSOR_ID is required; the defaults are the thesis rig, the simulator and 30 Hz.
@@ -45,7 +48,11 @@ fn config_defaults() {
 #[test]
 fn config_errors_name_node_key_and_value() {
     let err = Config::from_lookup(lookup(&[])).unwrap_err();
-    assert!(chain(&err).contains("kinect-source: SENSOR_ID"), "{}", chain(&err));
+    assert!(
+        chain(&err).contains("kinect-source: SENSOR_ID"),
+        "{}",
+        chain(&err)
+    );
     for (key, raw) in [
         ("BACKEND", "kinect1"),
         ("CLOCK_DRIFT_PPM", "fast"),
@@ -59,7 +66,10 @@ fn config_errors_name_node_key_and_value() {
         }
         let err = Config::from_lookup(lookup(&pairs)).unwrap_err();
         let text = chain(&err);
-        assert!(text.contains("kinect-source") && text.contains(key), "{text}");
+        assert!(
+            text.contains("kinect-source") && text.contains(key),
+            "{text}"
+        );
         if key != "FRAME_RATE_HZ" {
             assert!(text.contains(raw), "{text}");
         }
@@ -79,8 +89,13 @@ fn backend_errors_name_the_key() {
     ]))
     .unwrap();
     let err = Source::new(&c, 0).unwrap_err();
-    assert!(chain(&err).contains("REPLAY_FILE=/nonexistent/skeleton.txt"), "{}", chain(&err));
-    let c = Config::from_lookup(lookup(&[("SENSOR_ID", "k1"), ("RIG", "/no/such/rig.yml")])).unwrap();
+    assert!(
+        chain(&err).contains("REPLAY_FILE=/nonexistent/skeleton.txt"),
+        "{}",
+        chain(&err)
+    );
+    let c =
+        Config::from_lookup(lookup(&[("SENSOR_ID", "k1"), ("RIG", "/no/such/rig.yml")])).unwrap();
     assert!(chain(&Source::new(&c, 0).unwrap_err()).contains("RIG="));
 }
 
@@ -116,7 +131,8 @@ fn simulated_captures() {
     .unwrap();
     let start = 1_700_000_000_000_000_000;
     let mut source = Source::new(&c, start).unwrap();
-    let mut clock = crate::backend::SensorClock::new(&c, start, trigait_sim::Simulator::sensor_rng(1, 0));
+    let mut clock =
+        crate::backend::SensorClock::new(&c, start, trigait_sim::Simulator::sensor_rng(1, 0));
     let mut last_truth = None;
     let mut due_prev = None;
     for _ in 0..20 {
@@ -147,7 +163,10 @@ fn simulated_captures() {
 fn replay_both_formats() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared/data/kinect-v2-skeleton-replay");
-    for (file, frames) in [("JointsInfo_Straight.txt", 85), ("JointsInfo_Cyrille_v2_2.txt", 970)] {
+    for (file, frames) in [
+        ("JointsInfo_Straight.txt", 85),
+        ("JointsInfo_Cyrille_v2_2.txt", 970),
+    ] {
         let path = dir.join(file);
         let c = Config::from_lookup(lookup(&[
             ("SENSOR_ID", "k1"),
@@ -157,7 +176,8 @@ fn replay_both_formats() {
         ]))
         .unwrap();
         let mut source = Source::new(&c, 0).unwrap();
-        let mut clock = crate::backend::SensorClock::new(&c, 0, trigait_sim::Simulator::sensor_rng(1, 0));
+        let mut clock =
+            crate::backend::SensorClock::new(&c, 0, trigait_sim::Simulator::sensor_rng(1, 0));
         let mut seqs = Vec::new();
         for i in 0..frames + 2 {
             let cap = source.capture(i, &mut clock).unwrap();
@@ -171,7 +191,11 @@ fn replay_both_formats() {
 
 fn arrow_file(dir: &std::path::Path, name: &str, array: ArrayRef) -> std::path::PathBuf {
     let path = dir.join(format!("{name}.arrow"));
-    let schema = Arc::new(Schema::new(vec![Field::new("msg", array.data_type().clone(), false)]));
+    let schema = Arc::new(Schema::new(vec![Field::new(
+        "msg",
+        array.data_type().clone(),
+        false,
+    )]));
     let batch = RecordBatch::try_new(schema.clone(), vec![array]).unwrap();
     let mut writer = FileWriter::try_new(std::fs::File::create(&path).unwrap(), &schema).unwrap();
     writer.write(&batch).unwrap();
@@ -184,10 +208,19 @@ fn arrow_file(dir: &std::path::Path, name: &str, array: ArrayRef) -> std::path::
 /// malformed request is counted and skipped.
 #[test]
 fn event_loop_answers_own_ntp_requests() {
-    let dir = std::env::temp_dir().join(format!("trigait-kinect-source-test-{}", std::process::id()));
+    let dir =
+        std::env::temp_dir().join(format!("trigait-kinect-source-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let mine = arrow_file(&dir, "mine", NtpExchange::request("k1", 7, 1_000).encode().unwrap());
-    let other = arrow_file(&dir, "other", NtpExchange::request("k3", 8, 1_000).encode().unwrap());
+    let mine = arrow_file(
+        &dir,
+        "mine",
+        NtpExchange::request("k1", 7, 1_000).encode().unwrap(),
+    );
+    let other = arrow_file(
+        &dir,
+        "other",
+        NtpExchange::request("k3", 8, 1_000).encode().unwrap(),
+    );
     let input: dora_node_api::integration_testing::IntegrationTestInput =
         serde_json::from_value(serde_json::json!({
             "id": "k1",
@@ -208,14 +241,23 @@ fn event_loop_answers_own_ntp_requests() {
         },
     )
     .unwrap();
-    let c = Config::from_lookup(lookup(&[("SENSOR_ID", "k1"), ("CLOCK_OFFSET_MILLIS", "20")])).unwrap();
+    let c = Config::from_lookup(lookup(&[
+        ("SENSOR_ID", "k1"),
+        ("CLOCK_OFFSET_MILLIS", "20"),
+    ]))
+    .unwrap();
     let source = Source::new(&c, crate::backend::now_nanos()).unwrap();
     let counters = crate::run(c, source, node, events).unwrap();
     assert_eq!(counters.ntp_answered, 1);
     assert_eq!(counters.malformed, 1);
     assert!(counters.frames_sent >= 5, "{counters:?}");
     let outputs = drain_outputs(&mut rx);
-    let count = |id: &str| outputs.iter().filter(|o| o.get("id").and_then(|v| v.as_str()) == Some(id)).count();
+    let count = |id: &str| {
+        outputs
+            .iter()
+            .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some(id))
+            .count()
+    };
     assert_eq!(count("ntp_reply"), 1);
     assert_eq!(count("frame") as u64, counters.frames_sent);
     assert!(count("ground_truth") >= 4);

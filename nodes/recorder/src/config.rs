@@ -2,8 +2,8 @@
 //!
 //! | env var | type | default | meaning |
 //! |---|---|---|---|
-//! | `OUT_DIR` | path | `out` | where `summary.json`, `trajectory.txt` and `trajectory.csv` go |
-//! | `RRD` | path or `none` | `<OUT_DIR>/trigait.rrd` | the rerun recording file |
+//! | `OUTPUT_DIR` | path | `out` | where `summary.json`, `trajectory.txt` and `trajectory.csv` go |
+//! | `RRD` | path or `none` | `<OUTPUT_DIR>/trigait.rrd` | the rerun recording file |
 //! | `RERUN_CONNECT` | gRPC url | none | also stream to a running viewer (`rerun+http://127.0.0.1:9876/proxy`); never blocks when none is there |
 //! | `RIG` | `thesis`, `ring-N` or YAML path | `thesis` | sensor poses drawn as axes and frusta |
 //! | `RING_CAPACITY` | integer | `1000` | positions kept per joint (thesis: 1000) for the text/CSV export |
@@ -17,7 +17,7 @@ use eyre::{bail, eyre};
 use trigait_rig::Rig;
 
 /// Env var: output directory.
-pub const OUT_DIR: &str = "OUT_DIR";
+pub const OUTPUT_DIR: &str = "OUTPUT_DIR";
 /// Env var: rrd path.
 pub const RRD: &str = "RRD";
 /// Env var: viewer url.
@@ -52,7 +52,7 @@ impl Config {
 
     /// From any lookup (tests).
     pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
-        let out_dir = PathBuf::from(lookup(OUT_DIR).unwrap_or_else(|| "out".into()));
+        let out_dir = PathBuf::from(lookup(OUTPUT_DIR).unwrap_or_else(|| "out".into()));
         let rrd = match lookup(RRD) {
             None => Some(out_dir.join("trigait.rrd")),
             Some(s) if s.trim() == "none" => None,
@@ -60,17 +60,24 @@ impl Config {
         };
         let connect = lookup(RERUN_CONNECT).filter(|s| !s.trim().is_empty());
         if let Some(url) = &connect
-            && !(url.starts_with("rerun+http://") || url.starts_with("rerun+https://") || url.starts_with("rerun://"))
+            && !(url.starts_with("rerun+http://")
+                || url.starts_with("rerun+https://")
+                || url.starts_with("rerun://"))
         {
-            bail!("{NODE}: {RERUN_CONNECT}={url:?} is invalid: expected a rerun gRPC proxy url like rerun+http://127.0.0.1:9876/proxy");
+            bail!(
+                "{NODE}: {RERUN_CONNECT}={url:?} is invalid: expected a rerun gRPC proxy url like rerun+http://127.0.0.1:9876/proxy"
+            );
         }
         let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
-        let rig = Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
+        let rig =
+            Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
         let ring_capacity = match lookup(RING_CAPACITY) {
             None => 1000,
             Some(raw) => match raw.trim().parse::<usize>() {
                 Ok(n) if n > 0 => n,
-                _ => bail!("{NODE}: {RING_CAPACITY}={raw:?} is invalid: expected a positive integer"),
+                _ => {
+                    bail!("{NODE}: {RING_CAPACITY}={raw:?} is invalid: expected a positive integer")
+                }
             },
         };
         Ok(Config {

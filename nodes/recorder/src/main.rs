@@ -1,6 +1,6 @@
 //! `recorder`: the end of the graph. Logs everything to rerun (an `.rrd` file by default, a
 //! live viewer when `RERUN_CONNECT` is set), keeps the thesis ring buffer, and when the graph
-//! stops writes `trajectory.txt`, `trajectory.csv` and `summary.json` into `OUT_DIR`.
+//! stops writes `trajectory.txt`, `trajectory.csv` and `summary.json` into `OUTPUT_DIR`.
 //! Configuration: [`config`]; entity paths: [`viz`].
 
 mod config;
@@ -34,7 +34,7 @@ fn now_nanos() -> i64 {
 /// The event loop; returns the summary it wrote.
 pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Result<Summary> {
     std::fs::create_dir_all(&config.out_dir)
-        .with_context(|| format!("recorder: creating OUT_DIR={}", config.out_dir.display()))?;
+        .with_context(|| format!("recorder: creating OUTPUT_DIR={}", config.out_dir.display()))?;
     let rec = viz::open(&config)?;
     viz::log_static(&rec, &config.rig).context("recorder: logging the rig")?;
     let mut stats = Stats::default();
@@ -90,7 +90,9 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                         }
                         Err(e) => {
                             stats.malformed += 1;
-                            eprintln!("WARN recorder: skipping malformed ground truth of {sensor}: {e}");
+                            eprintln!(
+                                "WARN recorder: skipping malformed ground truth of {sensor}: {e}"
+                            );
                             Ok(())
                         }
                     }
@@ -113,7 +115,9 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                 if let Err(e) = logged {
                     rerun_errors += 1;
                     if rerun_errors == 1 {
-                        eprintln!("ERROR recorder: rerun logging failed (further failures counted): {e:#}");
+                        eprintln!(
+                            "ERROR recorder: rerun logging failed (further failures counted): {e:#}"
+                        );
                     }
                 }
             }
@@ -128,16 +132,20 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
         }
     }
     let summary = stats.summary(now_nanos());
-    ring.write(&config.out_dir).context("recorder: writing the trajectory exports")?;
+    ring.write(&config.out_dir)
+        .context("recorder: writing the trajectory exports")?;
     let path = config.out_dir.join("summary.json");
-    let json = serde_json::to_string_pretty(&summary).context("recorder: serialising the summary")?;
+    let json =
+        serde_json::to_string_pretty(&summary).context("recorder: serialising the summary")?;
     std::fs::write(&path, json).with_context(|| format!("recorder: writing {}", path.display()))?;
     rec.flush_blocking().ok();
     drop(rec);
     eprintln!(
         "INFO recorder: {} poses, RMSE {} m, latency p50 {:.2} ms p99 {:.2} ms; wrote {}",
         summary.sets_fused,
-        summary.rmse_all_m.map_or_else(|| "n/a".to_owned(), |r| format!("{r:.4}")),
+        summary
+            .rmse_all_m
+            .map_or_else(|| "n/a".to_owned(), |r| format!("{r:.4}")),
         summary.latency_ms.p50,
         summary.latency_ms.p99,
         path.display()

@@ -302,7 +302,10 @@ impl Stats {
 
     /// The source's frame input closed (it stopped or was killed).
     pub fn source_closed(&mut self, sensor: &str, now_nanos: i64) {
-        self.frames.entry(sensor.to_owned()).or_default().closed_at_nanos = Some(now_nanos);
+        self.frames
+            .entry(sensor.to_owned())
+            .or_default()
+            .closed_at_nanos = Some(now_nanos);
     }
 
     /// The summary at `end_nanos`.
@@ -329,7 +332,11 @@ impl Stats {
             .values()
             .fold((0.0, 0), |acc, (s, n)| (acc.0 + s, acc.1 + n));
         Summary {
-            frames_in: self.frames.iter().map(|(k, f)| (k.clone(), f.count)).collect(),
+            frames_in: self
+                .frames
+                .iter()
+                .map(|(k, f)| (k.clone(), f.count))
+                .collect(),
             sets_fused: self.sets,
             dropped_sets: self.dropped_sets,
             incomplete_sets: self.incomplete_sets,

@@ -26,7 +26,10 @@ fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
 }
 
 fn chain(err: &eyre::Report) -> String {
-    err.chain().map(ToString::to_string).collect::<Vec<_>>().join(": ")
+    err.chain()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
 }
 
 /// Defaults: `out/trigait.rrd`, no viewer, thesis rig, 1000 positions.
@@ -36,10 +39,22 @@ fn config_defaults_and_errors() {
     assert_eq!(c.rrd.unwrap(), std::path::Path::new("out/trigait.rrd"));
     assert!(c.connect.is_none());
     assert_eq!(c.ring_capacity, 1000);
-    assert!(Config::from_lookup(lookup(&[("RRD", "none")])).unwrap().rrd.is_none());
-    for (key, raw) in [("RING_CAPACITY", "0"), ("RERUN_CONNECT", "localhost:9876"), ("RIG", "ring-2")] {
+    assert!(
+        Config::from_lookup(lookup(&[("RRD", "none")]))
+            .unwrap()
+            .rrd
+            .is_none()
+    );
+    for (key, raw) in [
+        ("RING_CAPACITY", "0"),
+        ("RERUN_CONNECT", "localhost:9876"),
+        ("RIG", "ring-2"),
+    ] {
         let text = chain(&Config::from_lookup(lookup(&[(key, raw)])).unwrap_err());
-        assert!(text.starts_with("recorder: ") && text.contains(key) && text.contains(raw), "{text}");
+        assert!(
+            text.starts_with("recorder: ") && text.contains(key) && text.contains(raw),
+            "{text}"
+        );
     }
 }
 
@@ -85,11 +100,30 @@ fn pose(seq: u64, t: i64, x: f64) -> FusedPose {
 fn summary_scores_and_counts() {
     let mut stats = Stats::default();
     // Truth moves 1 m/s along x, sampled every 2 ms.
-    stats.push_truth((0..50).map(|i| truth_row(i * 2_000_000, i as f64 * 0.002)).collect());
+    stats.push_truth(
+        (0..50)
+            .map(|i| truth_row(i * 2_000_000, i as f64 * 0.002))
+            .collect(),
+    );
     // Pose at 15 ms: truth x = 0.015; fused 3 cm off. Pose at 33 ms exact. Seq 2 never arrives.
-    stats.push_pose(pose(0, 15_000_000, 0.045), 20_000_000, Some(18_000_000), Some(0));
-    stats.push_pose(pose(1, 33_000_000, 0.033), 40_000_000, Some(36_000_000), Some(1));
-    stats.push_pose(pose(3, 60_000_000, 0.060), 66_000_000, Some(64_000_000), None);
+    stats.push_pose(
+        pose(0, 15_000_000, 0.045),
+        20_000_000,
+        Some(18_000_000),
+        Some(0),
+    );
+    stats.push_pose(
+        pose(1, 33_000_000, 0.033),
+        40_000_000,
+        Some(36_000_000),
+        Some(1),
+    );
+    stats.push_pose(
+        pose(3, 60_000_000, 0.060),
+        66_000_000,
+        Some(64_000_000),
+        None,
+    );
     stats.push_timing(&[
         FrameTiming {
             sensor_id: "k1".into(),
@@ -141,7 +175,11 @@ fn summary_scores_and_counts() {
     assert_eq!(ntp.offset_ms, Some(5.0));
     // One gap between frames (33 → 400 ms) and one to the end (400 → 1000 ms).
     assert_eq!(s.gaps.len(), 2, "{:?}", s.gaps);
-    assert!(s.gaps.iter().any(|g| g.until_end && (g.duration_secs - 0.6).abs() < 1e-9));
+    assert!(
+        s.gaps
+            .iter()
+            .any(|g| g.until_end && (g.duration_secs - 0.6).abs() < 1e-9)
+    );
     assert_eq!(s.frames_in["k1"], 3);
 }
 
@@ -168,7 +206,10 @@ fn ring_and_exports() {
     let text = ring.thesis_text();
     let lines: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
     assert_eq!(lines.len(), 1000);
-    let first: Vec<f64> = lines[0].split_whitespace().map(|v| v.parse().unwrap()).collect();
+    let first: Vec<f64> = lines[0]
+        .split_whitespace()
+        .map(|v| v.parse().unwrap())
+        .collect();
     assert_eq!(first, [0.0, 0.2, 0.0, 0.5]);
     let csv = ring.csv();
     assert_eq!(csv.lines().count(), 1001);
@@ -195,7 +236,7 @@ fn empty_run_writes_outputs() {
     )
     .unwrap();
     let out = dir.to_str().unwrap().to_owned();
-    let config = Config::from_lookup(lookup(&[("OUT_DIR", &out)])).unwrap();
+    let config = Config::from_lookup(lookup(&[("OUTPUT_DIR", &out)])).unwrap();
     let summary = crate::run(config, node, events).unwrap();
     assert_eq!(summary.sets_fused, 0);
     assert_eq!(summary.malformed_inputs, 1);

@@ -81,10 +81,7 @@ pub fn log_static(rec: &RecordingStream, rig: &Rig) -> eyre::Result<()> {
                 rerun::Quaternion::from_xyzw([q.i as f32, q.j as f32, q.k as f32, q.w as f32]),
             ),
         )?;
-        rec.log_static(
-            format!("{path}/axes"),
-            &rerun::TransformAxes3D::new(0.3),
-        )?;
+        rec.log_static(format!("{path}/axes"), &rerun::TransformAxes3D::new(0.3))?;
         rec.log_static(
             format!("{path}/frustum"),
             &rerun::Pinhole::from_focal_length_and_resolution(
@@ -99,7 +96,13 @@ pub fn log_static(rec: &RecordingStream, rig: &Rig) -> eyre::Result<()> {
         .iter()
         .map(|(a, b)| (a.index() as u16, b.index() as u16).into())
         .collect();
-    connections.push((Joint::HipLeft.index() as u16, Joint::HipRight.index() as u16).into());
+    connections.push(
+        (
+            Joint::HipLeft.index() as u16,
+            Joint::HipRight.index() as u16,
+        )
+            .into(),
+    );
     rec.log_static(
         FUSED,
         &rerun::AnnotationContext::new([rerun::datatypes::ClassDescription {

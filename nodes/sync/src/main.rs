@@ -9,7 +9,9 @@ mod config;
 mod tests;
 
 use dora_node_api::dora_core::config::DataId;
-use dora_node_api::{DoraNode, Event, EventStream, MetadataParameters, Parameter, get_integer_param};
+use dora_node_api::{
+    DoraNode, Event, EventStream, MetadataParameters, Parameter, get_integer_param,
+};
 use eyre::{Context, bail};
 use trigait_schema::{FrameTiming, Message, NtpExchange, SkeletonFrameMessage, ports};
 use trigait_sync::{AlignedSet, Error as SyncError, SyncBuffer};
@@ -18,7 +20,8 @@ use crate::config::Config;
 
 fn main() -> eyre::Result<()> {
     let config = Config::from_env()?;
-    let (node, events) = DoraNode::init_from_env().context("sync: connecting to the dora daemon")?;
+    let (node, events) =
+        DoraNode::init_from_env().context("sync: connecting to the dora daemon")?;
     let sensors = match &config.sensors {
         Some(ids) => ids.clone(),
         None => sensors_from_inputs(node.node_config().inputs.keys().map(|id| id.as_str()))?,
@@ -41,7 +44,9 @@ pub fn sensors_from_inputs<'a>(inputs: impl Iterator<Item = &'a str>) -> eyre::R
     for id in &ids {
         let ntp = format!("{}{id}", ports::NTP_INPUT_PREFIX);
         if !inputs.contains(&ntp.as_str()) {
-            bail!("sync: input `frame_{id}` has no matching `{ntp}` input (the NTP replies of {id})");
+            bail!(
+                "sync: input `frame_{id}` has no matching `{ntp}` input (the NTP replies of {id})"
+            );
         }
     }
     ports::sort_sensor_ids(&mut ids);
@@ -99,27 +104,32 @@ pub fn run(
     let mut timings: Vec<FrameTiming> = Vec::new();
     let mut last_ntp: Option<i64> = None;
     let mut request_id = 0_u64;
+    let ntp_spacing_nanos = config.ntp_interval_nanos / sensors.len().max(1) as i64;
     while let Some(event) = events.recv() {
         match event {
             Event::Input { id, metadata, data } => {
                 let id = id.as_str();
                 let now = now_nanos();
                 if id == "tick" {
-                    if last_ntp.is_none_or(|t| now - t >= config.ntp_interval_nanos) {
+                    // One request per tick at most, round robin, spread evenly over the
+                    // interval: a burst to every sensor at once would queue the replies behind
+                    // each other and bias the first sensors' offsets by the queueing time.
+                    if last_ntp.is_none_or(|t| now - t >= ntp_spacing_nanos)
+                        && let Some(sensor) = sensors.get(request_id as usize % sensors.len())
+                    {
                         last_ntp = Some(now);
-                        for sensor in &sensors {
-                            request_id += 1;
-                            let request = NtpExchange::request(sensor.clone(), request_id, now_nanos());
-                            let array = request.encode().context("encoding an NTP request")?;
-                            node.send_output(out.ntp.clone(), MetadataParameters::default(), array)
-                                .context("sync: sending ntp_request")?;
-                            counters.ntp_requests += 1;
-                        }
+                        request_id += 1;
+                        let request = NtpExchange::request(sensor.clone(), request_id, now_nanos());
+                        let array = request.encode().context("encoding an NTP request")?;
+                        node.send_output(out.ntp.clone(), MetadataParameters::default(), array)
+                            .context("sync: sending ntp_request")?;
+                        counters.ntp_requests += 1;
                     }
                     let sets: Vec<AlignedSet> = buffer.advance_to(now).collect();
                     emit(&mut node, &out, sets, now, &mut counters)?;
                     if !timings.is_empty() {
-                        let array = FrameTiming::encode_many(&timings).context("encoding frame timings")?;
+                        let array =
+                            FrameTiming::encode_many(&timings).context("encoding frame timings")?;
                         node.send_output(out.timing.clone(), MetadataParameters::default(), array)
                             .context("sync: sending frame_timing")?;
                         timings.clear();
@@ -129,7 +139,10 @@ pub fn run(
                         Ok(e) if e.sensor_id == sensor => e.completed(now),
                         Ok(e) => {
                             counters.malformed += 1;
-                            eprintln!("WARN sync: input {id:?} carried an NTP reply of sensor {:?}; skipped", e.sensor_id);
+                            eprintln!(
+                                "WARN sync: input {id:?} carried an NTP reply of sensor {:?}; skipped",
+                                e.sensor_id
+                            );
                             continue;
                         }
                         Err(e) => {
@@ -155,7 +168,10 @@ pub fn run(
                         Ok(m) if m.frame.sensor_id == sensor => m.frame,
                         Ok(m) => {
                             counters.malformed += 1;
-                            eprintln!("WARN sync: input {id:?} carried a frame of sensor {:?}; skipped", m.frame.sensor_id);
+                            eprintln!(
+                                "WARN sync: input {id:?} carried a frame of sensor {:?}; skipped",
+                                m.frame.sensor_id
+                            );
                             continue;
                         }
                         Err(e) => {
@@ -166,8 +182,13 @@ pub fn run(
                     };
                     let sets: Vec<AlignedSet> = buffer.advance_to(now).collect();
                     emit(&mut node, &out, sets, now, &mut counters)?;
-                    timings.push(timing_of(&buffer, &frame, get_integer_param(&metadata.parameters, ports::TRUE_CAPTURE_NANOS)));
-                    let sent = get_integer_param(&metadata.parameters, ports::SENT_NANOS).unwrap_or(now);
+                    timings.push(timing_of(
+                        &buffer,
+                        &frame,
+                        get_integer_param(&metadata.parameters, ports::TRUE_CAPTURE_NANOS),
+                    ));
+                    let sent =
+                        get_integer_param(&metadata.parameters, ports::SENT_NANOS).unwrap_or(now);
                     match buffer.push(frame) {
                         Ok(sets) => {
                             let sets: Vec<AlignedSet> = sets.collect();
@@ -185,7 +206,9 @@ pub fn run(
             }
             Event::InputClosed { id } => {
                 if let Some(sensor) = ports::sensor_of(id.as_str(), ports::FRAME_INPUT_PREFIX) {
-                    eprintln!("WARN sync: source {sensor} stopped; its sets go out incomplete from now on");
+                    eprintln!(
+                        "WARN sync: source {sensor} stopped; its sets go out incomplete from now on"
+                    );
                 }
             }
             Event::Stop(_) => {}
@@ -213,7 +236,11 @@ pub fn run(
     Ok(counters)
 }
 
-fn timing_of(buffer: &SyncBuffer, frame: &trigait_skeleton::SkeletonFrame, true_nanos: Option<i64>) -> FrameTiming {
+fn timing_of(
+    buffer: &SyncBuffer,
+    frame: &trigait_skeleton::SkeletonFrame,
+    true_nanos: Option<i64>,
+) -> FrameTiming {
     let mapped = buffer.server_from_local(&frame.sensor_id, frame.local_stamp_nanos);
     let estimate = buffer.clock(&frame.sensor_id).and_then(|c| c.estimate());
     FrameTiming {
@@ -237,7 +264,10 @@ fn emit(
 ) -> eyre::Result<()> {
     for set in sets {
         let mut params = MetadataParameters::default();
-        params.insert(ports::TRIGGER_SENT_NANOS.to_owned(), Parameter::Integer(trigger_sent_nanos));
+        params.insert(
+            ports::TRIGGER_SENT_NANOS.to_owned(),
+            Parameter::Integer(trigger_sent_nanos),
+        );
         params.insert(
             ports::MISSING_SENSORS.to_owned(),
             Parameter::Integer(i64::try_from(set.missing.len()).unwrap_or(i64::MAX)),

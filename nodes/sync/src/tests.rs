@@ -3,11 +3,11 @@
 
 use std::collections::HashMap;
 
-use dora_node_api::{DoraNode, serde_json};
 use dora_node_api::integration_testing::{
     IntegrationTestInput, TestingInput, TestingOptions, TestingOutput, drain_outputs,
     output_channel,
 };
+use dora_node_api::{DoraNode, serde_json};
 use trigait_sync::Policy;
 
 use crate::config::Config;
@@ -21,7 +21,10 @@ fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
 }
 
 fn chain(err: &eyre::Report) -> String {
-    err.chain().map(ToString::to_string).collect::<Vec<_>>().join(": ")
+    err.chain()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
 }
 
 /// Defaults: interpolate at 30 Hz, 100 ms deadline, NTP every 100 ms, sensors from inputs.
@@ -32,7 +35,12 @@ fn config_defaults_and_policy() {
     assert_eq!(c.params.latency_deadline_nanos, 100_000_000);
     assert_eq!(c.ntp_interval_nanos, 100_000_000);
     assert!(c.sensors.is_none());
-    let c = Config::from_lookup(lookup(&[("POLICY", "slots"), ("SLOT_MILLIS", "20"), ("SENSORS", "a, b")])).unwrap();
+    let c = Config::from_lookup(lookup(&[
+        ("POLICY", "slots"),
+        ("SLOT_MILLIS", "20"),
+        ("SENSORS", "a, b"),
+    ]))
+    .unwrap();
     assert_eq!(c.params.policy, Policy::Slots);
     assert_eq!(c.params.slot_nanos, 20_000_000);
     assert_eq!(c.sensors.unwrap(), ["a", "b"]);
@@ -56,14 +64,26 @@ fn config_errors_name_node_key_and_value() {
         }
     }
     let text = chain(&Config::from_lookup(lookup(&[("POLICY", "round-robin")])).unwrap_err());
-    assert!(text.contains("slots") && text.contains("interpolate"), "lists the valid names: {text}");
+    assert!(
+        text.contains("slots") && text.contains("interpolate"),
+        "lists the valid names: {text}"
+    );
 }
 
 /// Sensors come from `frame_<id>` inputs in natural order; each needs its `ntp_<id>`.
 #[test]
 fn sensors_from_the_graph() {
     let ids = crate::sensors_from_inputs(
-        ["tick", "frame_k10", "ntp_k10", "frame_k2", "ntp_k2", "frame_k1", "ntp_k1"].into_iter(),
+        [
+            "tick",
+            "frame_k10",
+            "ntp_k10",
+            "frame_k2",
+            "ntp_k2",
+            "frame_k1",
+            "ntp_k1",
+        ]
+        .into_iter(),
     )
     .unwrap();
     assert_eq!(ids, ["k1", "k2", "k10"]);
@@ -72,8 +92,8 @@ fn sensors_from_the_graph() {
     assert!(crate::sensors_from_inputs(["tick"].into_iter()).is_err());
 }
 
-/// Timer ticks send one NTP request per sensor per interval; malformed frames and replies,
-/// and a frame arriving on another sensor's input, are counted and skipped.
+/// Timer ticks send NTP requests round robin, evenly spread (interval / sensors apart, at most
+/// one per tick); malformed frames and replies are counted and skipped.
 #[test]
 fn ticks_request_ntp_and_bad_input_is_skipped() {
     let input: IntegrationTestInput = serde_json::from_value(serde_json::json!({
@@ -83,6 +103,7 @@ fn ticks_request_ntp_and_bad_input_is_skipped() {
             {"time_offset_secs": 0.01, "type": "Input", "id": "frame_k1", "data": [1, 2]},
             {"time_offset_secs": 0.02, "type": "Input", "id": "ntp_k2", "data": "garbage"},
             {"time_offset_secs": 0.03, "type": "Input", "id": "tick", "data": 0},
+            {"time_offset_secs": 0.07, "type": "Input", "id": "tick", "data": 0},
             {"time_offset_secs": 0.15, "type": "Input", "id": "tick", "data": 0},
             {"time_offset_secs": 0.20, "type": "Stop"}
         ]
@@ -98,13 +119,13 @@ fn ticks_request_ntp_and_bad_input_is_skipped() {
     let config = Config::from_lookup(lookup(&[])).unwrap();
     let counters = crate::run(config, vec!["k1".into(), "k2".into()], node, events).unwrap();
     assert_eq!(counters.malformed, 2);
-    // Ticks at 0 and 150 ms are ≥ 100 ms apart; the one at 30 ms is not.
-    assert_eq!(counters.ntp_requests, 4);
+    // 100 ms over 2 sensors: requests ≥ 50 ms apart — at 0 (k1), 70 (k2) and 150 ms (k1).
+    assert_eq!(counters.ntp_requests, 3);
     assert_eq!(counters.sets_sent, 0, "no frames, no sets");
     let outputs = drain_outputs(&mut rx);
     let requests = outputs
         .iter()
         .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some("ntp_request"))
         .count();
-    assert_eq!(requests, 4);
+    assert_eq!(requests, 3);
 }

@@ -46,10 +46,15 @@ impl Config {
         let robust = match lookup(ROBUST).as_deref().map(str::trim) {
             None | Some("false" | "0" | "no") => false,
             Some("true" | "1" | "yes") => true,
-            Some(other) => return Err(eyre!("{NODE}: {ROBUST}={other:?} is invalid: expected true or false")),
+            Some(other) => {
+                return Err(eyre!(
+                    "{NODE}: {ROBUST}={other:?} is invalid: expected true or false"
+                ));
+            }
         };
         let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
-        let rig = Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
+        let rig =
+            Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
         Ok(Config {
             params: Params::new(method).with_robust(robust),
             rig,

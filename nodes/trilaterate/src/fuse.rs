@@ -123,8 +123,10 @@ impl Fuser {
         }
         for joint in &self.seen {
             if !pose.joints.contains_key(joint) && !pose.skipped.contains_key(joint) {
-                pose.skipped
-                    .insert(*joint, "too few sensors: no sensor saw it in this set".into());
+                pose.skipped.insert(
+                    *joint,
+                    "too few sensors: no sensor saw it in this set".into(),
+                );
             }
         }
         (pose, unknown)

@@ -4,11 +4,11 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use dora_node_api::{DoraNode, serde_json};
 use dora_node_api::integration_testing::{
     IntegrationTestInput, TestingInput, TestingOptions, TestingOutput, drain_outputs,
     output_channel,
 };
+use dora_node_api::{DoraNode, serde_json};
 use nalgebra::Point3;
 use trigait_rig::Rig;
 use trigait_skeleton::{Joint, JointSample, TrackingState};
@@ -27,7 +27,10 @@ fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
 }
 
 fn chain(err: &eyre::Report) -> String {
-    err.chain().map(ToString::to_string).collect::<Vec<_>>().join(": ")
+    err.chain()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
 }
 
 /// Defaults to fusion on the thesis rig; `ROBUST` wraps it.
@@ -54,7 +57,10 @@ fn config_errors_name_node_key_and_value() {
     let rig = dir.join("bad-rig.yml");
     std::fs::write(&rig, "sensors:\n  - id: a\n    position: [0, 0]\n").unwrap();
     let text = chain(&Config::from_lookup(lookup(&[("RIG", rig.to_str().unwrap())])).unwrap_err());
-    assert!(text.starts_with("trilaterate: RIG=") && text.contains("bad-rig.yml"), "{text}");
+    assert!(
+        text.starts_with("trilaterate: RIG=") && text.contains("bad-rig.yml"),
+        "{text}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -110,14 +116,20 @@ fn fuses_and_skips_with_reasons() {
     assert!((k.position - knee).norm() < 1e-6, "{}", k.position);
     assert_eq!(k.sensors_used, ["k1", "k2", "k3"]);
     assert!(k.covariance.trace() > 0.0 && k.covariance.trace() < 0.01);
-    assert!(pose.joints.contains_key(&Joint::AnkleLeft), "fusion needs one sensor");
+    assert!(
+        pose.joints.contains_key(&Joint::AnkleLeft),
+        "fusion needs one sensor"
+    );
 
     let linear = Config::from_lookup(lookup(&[("METHOD", "linear")])).unwrap();
     let mut fuser = Fuser::new(&linear.rig, linear.params.clone(), linear.estimator_name());
     let (pose, _) = fuser.fuse(&set);
     assert!((pose.joints[&Joint::KneeLeft].position - knee).norm() < 1e-6);
     let reason = &pose.skipped[&Joint::AnkleLeft];
-    assert!(reason.contains("too few sensors") && reason.contains("k1"), "{reason}");
+    assert!(
+        reason.contains("too few sensors") && reason.contains("k1"),
+        "{reason}"
+    );
 
     let mut later = set.clone();
     for v in later.sensors.values_mut() {
@@ -149,7 +161,7 @@ fn unknown_sensor_is_left_out() {
         time_uncertainty_nanos: 0,
     };
     let c = Config::from_lookup(lookup(&[])).unwrap();
-    let mut fuser = Fuser::new(&rig, c.params, c.estimator_name());
+    let mut fuser = Fuser::new(&rig, c.params.clone(), c.estimator_name());
     let (pose, unknown) = fuser.fuse(&set);
     assert_eq!(unknown, ["k7"]);
     assert!(pose.joints.is_empty());

@@ -74,7 +74,9 @@ mod tests {
         // Left stays left: on the way back the left hip is on the −Y side.
         assert!(hip(half + 1.0).y < lap.position_at(Joint::HipRight, half + 1.0).unwrap().y);
         let start = out.position(0, Joint::SpineBase).unwrap();
-        let end = lap.position(lap.frame_count() - 1, Joint::SpineBase).unwrap();
+        let end = lap
+            .position(lap.frame_count() - 1, Joint::SpineBase)
+            .unwrap();
         assert!((start.x - end.x).abs() < 0.3, "{start} {end}");
         assert_relative_eq!(start.z, end.z, epsilon = 1e-9);
     }

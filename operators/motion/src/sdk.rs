@@ -55,7 +55,9 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
             n => {
                 return Err((
                     line_no,
-                    format!("{n} columns, expected 76 (frame + 25×xyz) or 201 (frame + 25×state xyz quaternion)"),
+                    format!(
+                        "{n} columns, expected 76 (frame + 25×xyz) or 201 (frame + 25×state xyz quaternion)"
+                    ),
                 ));
             }
         };
@@ -65,9 +67,12 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
                 .filter(|v| v.is_finite())
                 .ok_or_else(|| (line_no, format!("{c:?} is not a finite number")))
         };
-        let frame_number = cols[0]
-            .parse::<u64>()
-            .map_err(|_| (line_no, format!("frame number {:?} is not an integer", cols[0])))?;
+        let frame_number = cols[0].parse::<u64>().map_err(|_| {
+            (
+                line_no,
+                format!("frame number {:?} is not an integer", cols[0]),
+            )
+        })?;
         let mut joints = Vec::with_capacity(25);
         for (j, joint) in Joint::ALL.into_iter().enumerate() {
             let at = 1 + j * stride;
@@ -79,7 +84,12 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
                     0 => TrackingState::NotTracked,
                     1 => TrackingState::Inferred,
                     2 => TrackingState::Tracked,
-                    _ => return Err((line_no, format!("tracking state {code} of {joint} is not 0, 1 or 2"))),
+                    _ => {
+                        return Err((
+                            line_no,
+                            format!("tracking state {code} of {joint} is not 0, 1 or 2"),
+                        ));
+                    }
                 };
                 (state, &cols[at + 1..at + 4])
             };
@@ -116,7 +126,11 @@ mod tests {
         let straight = read_sdk_skeletons(data.join("JointsInfo_Straight.txt")).unwrap();
         assert_eq!(straight.len(), 85);
         assert_eq!(straight[0].frame_number, 2198);
-        let base = straight[0].joints.iter().find(|s| s.joint == Joint::SpineBase).unwrap();
+        let base = straight[0]
+            .joints
+            .iter()
+            .find(|s| s.joint == Joint::SpineBase)
+            .unwrap();
         assert!((base.position_in_kinect - Point3::new(-0.99, -0.11, 2.65)).norm() < 0.01);
         let cyrille = read_sdk_skeletons(data.join("JointsInfo_Cyrille_v2_2.txt")).unwrap();
         assert_eq!(cyrille.len(), 970);

@@ -54,15 +54,21 @@ pub fn sensor_of<'a>(input_id: &'a str, prefix: &str) -> Option<&'a str> {
 
 /// Sorts sensor ids naturally (`k2` before `k10`), the slot order of the `slots` policy.
 pub fn sort_sensor_ids(ids: &mut [String]) {
-    ids.sort_by(|a, b| natural_key(a).cmp(&natural_key(b)));
+    ids.sort_by_key(|a| natural_key(a));
 }
 
 fn natural_key(id: &str) -> (String, u64, String) {
     let digits_at = id.find(|c: char| c.is_ascii_digit()).unwrap_or(id.len());
     let (head, rest) = id.split_at(digits_at);
-    let digits_end = rest.find(|c: char| !c.is_ascii_digit()).unwrap_or(rest.len());
+    let digits_end = rest
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(rest.len());
     let (digits, tail) = rest.split_at(digits_end);
-    (head.to_owned(), digits.parse().unwrap_or(0), tail.to_owned())
+    (
+        head.to_owned(),
+        digits.parse().unwrap_or(0),
+        tail.to_owned(),
+    )
 }
 
 #[cfg(test)]

@@ -16,7 +16,9 @@ use arrow_array::types::{Float64Type, Int64Type, UInt64Type};
 use arrow_array::{Array, ArrayRef, Float64Array, Int64Array, UInt64Array};
 use arrow_schema::{DataType, Fields};
 
-use crate::codec::{Builder, Col, column, field, no_null_rows, nullable, optional, string, struct_of, value};
+use crate::codec::{
+    Builder, Col, column, field, no_null_rows, nullable, optional, string, struct_of, value,
+};
 use crate::{Message, Result};
 
 /// One frame's placement on the server clock.
@@ -79,14 +81,21 @@ impl Message for FrameTiming {
             &fields(),
             vec![
                 b.strings(messages.iter().map(|m| m.sensor_id.as_str())),
-                Arc::new(UInt64Array::from_iter_values(messages.iter().map(|m| m.seq))),
+                Arc::new(UInt64Array::from_iter_values(
+                    messages.iter().map(|m| m.seq),
+                )),
                 Arc::new(Int64Array::from_iter_values(
                     messages.iter().map(|m| m.local_stamp_nanos),
                 )),
                 ints(|m| m.server_stamp_nanos),
                 ints(|m| m.uncertainty_nanos),
                 ints(|m| m.offset_nanos),
-                Arc::new(messages.iter().map(|m| m.drift_ppm).collect::<Float64Array>()),
+                Arc::new(
+                    messages
+                        .iter()
+                        .map(|m| m.drift_ppm)
+                        .collect::<Float64Array>(),
+                ),
                 ints(|m| m.true_stamp_nanos),
             ],
         )
