@@ -76,7 +76,9 @@ def main() -> int:
     build: cargo build --release --workspace --all-targets
     path: {root}target/release/trigait-trilaterate-node
     inputs:
-      aligned_set: sync/aligned_set
+      aligned_set:
+        source: sync/aligned_set
+        queue_size: 100
     outputs: [fused_pose]
     env:
       METHOD: {args.method}

@@ -7,7 +7,7 @@
 //! | `FUSION_RATE_HZ` | Hz | `30` | fusion instants under `interpolate` |
 //! | `SLOT_MILLIS` | ms | `15` | slot length under `slots` (cycle = (n+1) slots) |
 //! | `LATENCY_DEADLINE_MILLIS` | ms | `100` | a set goes out incomplete after this (must exceed transport delay) |
-//! | `NTP_INTERVAL_MILLIS` | ms | `100` | one NTP exchange per sensor this often (requests go round robin, at most one per `tick`) |
+//! | `NTP_INTERVAL_MILLIS` | ms | `100` | one NTP exchange per sensor this often |
 //! | `SENSORS` | comma list | from the `frame_<id>` inputs | sensor ids, in slot order |
 //!
 //! Inputs: `frame_<id>` and `ntp_<id>` per source, `tick` (a `dora/timer/millis/N` timer, ≤ 20 ms).

@@ -104,26 +104,23 @@ pub fn run(
     let mut timings: Vec<FrameTiming> = Vec::new();
     let mut last_ntp: Option<i64> = None;
     let mut request_id = 0_u64;
-    let ntp_spacing_nanos = config.ntp_interval_nanos / sensors.len().max(1) as i64;
     while let Some(event) = events.recv() {
         match event {
             Event::Input { id, metadata, data } => {
                 let id = id.as_str();
                 let now = now_nanos();
                 if id == "tick" {
-                    // One request per tick at most, round robin, spread evenly over the
-                    // interval: a burst to every sensor at once would queue the replies behind
-                    // each other and bias the first sensors' offsets by the queueing time.
-                    if last_ntp.is_none_or(|t| now - t >= ntp_spacing_nanos)
-                        && let Some(sensor) = sensors.get(request_id as usize % sensors.len())
-                    {
+                    if last_ntp.is_none_or(|t| now - t >= config.ntp_interval_nanos) {
                         last_ntp = Some(now);
-                        request_id += 1;
-                        let request = NtpExchange::request(sensor.clone(), request_id, now_nanos());
-                        let array = request.encode().context("encoding an NTP request")?;
-                        node.send_output(out.ntp.clone(), MetadataParameters::default(), array)
-                            .context("sync: sending ntp_request")?;
-                        counters.ntp_requests += 1;
+                        for sensor in &sensors {
+                            request_id += 1;
+                            let request =
+                                NtpExchange::request(sensor.clone(), request_id, now_nanos());
+                            let array = request.encode().context("encoding an NTP request")?;
+                            node.send_output(out.ntp.clone(), MetadataParameters::default(), array)
+                                .context("sync: sending ntp_request")?;
+                            counters.ntp_requests += 1;
+                        }
                     }
                     let sets: Vec<AlignedSet> = buffer.advance_to(now).collect();
                     emit(&mut node, &out, sets, now, &mut counters)?;
