@@ -5,7 +5,6 @@
 //! `cargo bench --release -p trigait-trilateration`; `trigait bench` prints the same solvers'
 //! throughput as ratios against `linear` and against scipy.
 
-#![allow(missing_docs)] // criterion_group! generates an undocumented public function
 // Test helpers outside `#[test]` functions panic on failure by design.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
