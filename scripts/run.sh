@@ -1,7 +1,43 @@
 #!/usr/bin/env bash
-# The main job on a fresh machine: builds trigait (release) and scores every estimator on the
-# embedded simulated walker crossing the thesis rig, ending with the summary table.
+# The README's run command: the default graph (3 simulated Kinects on the thesis rig, NTP sync,
+# interpolation, fusion, headless rerun recording) for 15 s, then a readable summary.
+#   scripts/run.sh            # then: .venv/bin/rerun out/trigait.rrd
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build --release --bin trigait
-target/release/trigait eval "$@"
+
+if [ ! -x .venv/bin/dora ]; then
+  echo "==> creating .venv with dora-rs-cli==1.1.0 (and rerun-sdk==0.36.3 for the viewer)"
+  python3 -m venv .venv
+  .venv/bin/pip install --quiet dora-rs-cli==1.1.0 rerun-sdk==0.36.3
+fi
+export PATH="$PWD/.venv/bin:$PATH"
+
+echo "==> building the nodes (release)"
+cargo build --release --workspace --all-targets
+rm -f out/summary.json
+echo "==> dora run dataflow.yml --stop-after ${STOP_AFTER:-15s}"
+dora run dataflow.yml --stop-after "${STOP_AFTER:-15s}"
+
+python3 - out/summary.json <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+print()
+print("trigait summary (out/summary.json)")
+print(f"  frames in        : {', '.join(f'{k} {v}' for k, v in s['frames_in'].items())}")
+print(f"  sets fused       : {s['sets_fused']}  (dropped {s['dropped_sets']}, incomplete {s['incomplete_sets']})")
+if s.get("rmse_all_m") is not None:
+    print(f"  RMSE vs truth    : {s['rmse_all_m'] * 1000:.1f} mm over {s['truth_samples']} joint samples")
+    for j, r in s["rmse_m"].items():
+        print(f"      {j:<12} {r * 1000:6.1f} mm")
+for k, n in s["ntp"].items():
+    e = n["abs_error_ms"]
+    print(f"  NTP {k:<4}         : offset {n['offset_ms'] or 0:+.3f} ms, drift {n['drift_ppm'] or 0:+.1f} ppm, "
+          f"|error| p50 {e['p50']:.3f} ms p99 {e['p99']:.3f} ms, {100 * n['share_below_1ms']:.1f} % < 1 ms")
+l = s["latency_ms"]
+print(f"  latency          : p50 {l['p50']:.2f} ms, p99 {l['p99']:.2f} ms (frame sent -> pose recorded)")
+a = s["age_ms"]
+print(f"  pose age         : p50 {a['p50']:.1f} ms, p99 {a['p99']:.1f} ms (fusion instant -> recorded)")
+print(f"  gaps             : {len(s['gaps'])}")
+print("  recording        : out/trigait.rrd  (view: .venv/bin/rerun out/trigait.rrd)")
+print("  exports          : out/trajectory.txt, out/trajectory.csv")
+PY

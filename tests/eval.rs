@@ -1,8 +1,8 @@
 //! `trigait eval` as a user runs it: the acceptance runs of issue 3 on the real mocap
 //! recordings, and clear errors for bad input.
 
-// Helpers outside #[test] functions panic on a broken harness, which is what a test wants.
-#![allow(clippy::expect_used, clippy::unwrap_used)]
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::process::{Command, Output};
 

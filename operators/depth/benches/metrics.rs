@@ -4,6 +4,9 @@
 //!
 //! Run: `cargo bench -p trigait-depth --bench metrics` (add `-- --quick` for a short run).
 
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 

@@ -1,6 +1,7 @@
 //! Bad input is a clear error naming the file, never a panic (issue 6 acceptance).
 
-#![allow(clippy::unwrap_used)] // tests may unwrap (STYLE.md §6); helpers outside #[test] fns need saying so
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::PathBuf;
 

@@ -1,7 +1,8 @@
 //! The metrics on real Kinect v2 frames from `../shared/data` (skipped with a message when the
 //! data is absent outside CI; a failure under `CI=true`).
 
-#![allow(clippy::unwrap_used)] // tests may unwrap (STYLE.md §6); helpers outside #[test] fns need saying so
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use trigait_depth::edge::{EdgeParams, edge_noise};
 use trigait_depth::io::{list_pngs, read_depth_png, read_mask_png};

@@ -1,7 +1,8 @@
 //! Simulator round trips (issue 6 acceptance): each metric recovers the property injected into
 //! simulated frames within 10 %.
 
-#![allow(clippy::unwrap_used)] // tests may unwrap (STYLE.md §6); helpers outside #[test] fns need saying so
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use trigait_depth::accuracy::{AccuracyParams, Zone};
 use trigait_depth::edge::{EdgeParams, edge_noise};

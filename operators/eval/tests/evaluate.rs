@@ -1,7 +1,8 @@
 //! The evaluation harness on the embedded walker: statistics are like for like, efficient
 //! estimators sit at their bound, and specs parse as the CLI accepts them.
 
-#![allow(clippy::unwrap_used)] // test helpers outside #[test] functions
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use trigait_eval::{EvalConfig, MethodSpec, evaluate};
 use trigait_kinect::NoiseModel;

@@ -2,6 +2,9 @@
 //! data for random rigs, typed errors on degenerate input, outlier rejection, and efficiency
 //! against the Cramér–Rao bound.
 
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use approx::assert_relative_eq;
 use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
 use proptest::prelude::*;

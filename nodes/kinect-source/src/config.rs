@@ -1,0 +1,235 @@
+//! `kinect-source` configuration, read from the `env:` block of the node in the dataflow YAML.
+//!
+//! | env var | type | default | meaning |
+//! |---|---|---|---|
+//! | `SENSOR_ID` | string | required | the sensor's id in the rig file (`k1`) |
+//! | `RIG` | `thesis`, `ring-N` or a YAML path | `thesis` | sensor poses (the simulator needs them) |
+//! | `BACKEND` | `sim`, `replay`, `freenect2` | `sim` | where frames come from |
+//! | `MOTION` | `walker` or a C3D/TRC/CSV path | `walker` | what the simulated subject does (played there and back, endlessly) |
+//! | `WALK_SECS` | seconds | `2.5` | one-way duration of the embedded walker |
+//! | `JOINTS` | `legs` or `all` | `legs` | joints reported |
+//! | `SEED` | integer | `1` | noise seed (each sensor has its own stream) |
+//! | `FRAME_RATE_HZ` | Hz | `30` | capture rate |
+//! | `FRAME_PHASE_MILLIS` | ms | sensor index × 11 | capture phase on the 30 Hz grid |
+//! | `CLOCK_OFFSET_MILLIS` | ms | `0` | simulated clock offset to the server |
+//! | `CLOCK_DRIFT_PPM` | ppm | `0` | simulated clock drift |
+//! | `CLOCK_JITTER_MICROS` | µs | `20` | σ of every clock reading |
+//! | `REPLAY_FILE` | path | required for `replay` | Kinect v2 SDK skeleton text file (either format) |
+//! | `REPLAY_SPEED` | `realtime` or `fast` | `realtime` | play at 30 Hz or as fast as possible |
+//! | `REPLAY_LOOP` | bool | `true` | start over at the end of the file |
+//! | `STOP_AFTER_FRAMES` | integer | none | stop after this many frames (tests: a source dying mid-run) |
+
+use std::path::PathBuf;
+
+use eyre::{bail, eyre};
+
+/// Env var names.
+pub const SENSOR_ID: &str = "SENSOR_ID";
+/// Env var: rig.
+pub const RIG: &str = "RIG";
+/// Env var: backend.
+pub const BACKEND: &str = "BACKEND";
+/// Env var: motion.
+pub const MOTION: &str = "MOTION";
+/// Env var: walker duration.
+pub const WALK_SECS: &str = "WALK_SECS";
+/// Env var: joints.
+pub const JOINTS: &str = "JOINTS";
+/// Env var: seed.
+pub const SEED: &str = "SEED";
+/// Env var: frame rate.
+pub const FRAME_RATE_HZ: &str = "FRAME_RATE_HZ";
+/// Env var: frame phase.
+pub const FRAME_PHASE_MILLIS: &str = "FRAME_PHASE_MILLIS";
+/// Env var: clock offset.
+pub const CLOCK_OFFSET_MILLIS: &str = "CLOCK_OFFSET_MILLIS";
+/// Env var: clock drift.
+pub const CLOCK_DRIFT_PPM: &str = "CLOCK_DRIFT_PPM";
+/// Env var: clock jitter.
+pub const CLOCK_JITTER_MICROS: &str = "CLOCK_JITTER_MICROS";
+/// Env var: replay file.
+pub const REPLAY_FILE: &str = "REPLAY_FILE";
+/// Env var: replay speed.
+pub const REPLAY_SPEED: &str = "REPLAY_SPEED";
+/// Env var: replay loop.
+pub const REPLAY_LOOP: &str = "REPLAY_LOOP";
+/// Env var: stop after N frames.
+pub const STOP_AFTER_FRAMES: &str = "STOP_AFTER_FRAMES";
+
+/// Where frames come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Backend {
+    /// The simulator.
+    Sim {
+        /// `walker` or a motion file.
+        motion: String,
+        /// One-way walker duration, seconds.
+        walk_secs: f64,
+    },
+    /// A recorded SDK skeleton file.
+    Replay {
+        /// The file.
+        file: PathBuf,
+        /// As fast as possible instead of at the frame rate.
+        fast: bool,
+        /// Start over at the end.
+        looped: bool,
+    },
+    /// A real Kinect v2 through libfreenect2.
+    Freenect2,
+}
+
+/// The node's configuration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Config {
+    /// Sensor id.
+    pub sensor_id: String,
+    /// Rig spec.
+    pub rig: String,
+    /// Backend.
+    pub backend: Backend,
+    /// Report all 25 joints instead of the legs.
+    pub all_joints: bool,
+    /// Noise seed.
+    pub seed: u64,
+    /// Capture rate, Hz.
+    pub frame_rate_hz: f64,
+    /// Capture phase, ns (`None`: from the sensor's index in the rig).
+    pub frame_phase_nanos: Option<i64>,
+    /// Clock offset, ns.
+    pub clock_offset_nanos: i64,
+    /// Clock drift, ppm.
+    pub clock_drift_ppm: f64,
+    /// Clock jitter σ, ns.
+    pub clock_jitter_nanos: f64,
+    /// Stop after this many frames.
+    pub stop_after_frames: Option<u64>,
+}
+
+const NODE: &str = "kinect-source";
+
+fn parse<T: std::str::FromStr>(
+    lookup: &impl Fn(&str) -> Option<String>,
+    key: &str,
+    default: T,
+) -> eyre::Result<T>
+where
+    T::Err: std::fmt::Display,
+{
+    match lookup(key) {
+        None => Ok(default),
+        Some(raw) => raw
+            .trim()
+            .parse()
+            .map_err(|e| eyre!("{NODE}: {key}={raw:?} is invalid: {e}")),
+    }
+}
+
+fn finite(key: &str, v: f64) -> eyre::Result<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        bail!("{NODE}: {key}={v} must be finite")
+    }
+}
+
+impl Config {
+    /// From the process environment.
+    pub fn from_env() -> eyre::Result<Self> {
+        Self::from_lookup(|k| std::env::var(k).ok())
+    }
+
+    /// From any lookup (tests).
+    pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
+        let sensor_id = lookup(SENSOR_ID)
+            .filter(|s| !s.trim().is_empty())
+            .ok_or_else(|| eyre!("{NODE}: {SENSOR_ID} is required (the sensor's id in the rig)"))?
+            .trim()
+            .to_owned();
+        let rig = lookup(RIG).unwrap_or_else(|| "thesis".into());
+        let backend_name = lookup(BACKEND).unwrap_or_else(|| "sim".into());
+        let backend = match backend_name.trim() {
+            "sim" => Backend::Sim {
+                motion: lookup(MOTION).unwrap_or_else(|| "walker".into()),
+                walk_secs: {
+                    let v = finite(WALK_SECS, parse(&lookup, WALK_SECS, 2.5)?)?;
+                    if v <= 0.5 {
+                        bail!("{NODE}: {WALK_SECS}={v} must exceed 0.5 s");
+                    }
+                    v
+                },
+            },
+            "replay" => Backend::Replay {
+                file: lookup(REPLAY_FILE).map(PathBuf::from).ok_or_else(|| {
+                    eyre!("{NODE}: {REPLAY_FILE} is required with {BACKEND}=replay")
+                })?,
+                fast: match lookup(REPLAY_SPEED).as_deref().map(str::trim) {
+                    None | Some("realtime") => false,
+                    Some("fast") => true,
+                    Some(other) => bail!(
+                        "{NODE}: {REPLAY_SPEED}={other:?} is invalid: expected `realtime` or `fast`"
+                    ),
+                },
+                looped: parse(&lookup, REPLAY_LOOP, true)?,
+            },
+            "freenect2" => Backend::Freenect2,
+            other => bail!(
+                "{NODE}: {BACKEND}={other:?} is invalid: expected `sim`, `replay` or `freenect2`"
+            ),
+        };
+        let all_joints = match lookup(JOINTS).as_deref().map(str::trim) {
+            None | Some("legs") => false,
+            Some("all") => true,
+            Some(other) => bail!("{NODE}: {JOINTS}={other:?} is invalid: expected `legs` or `all`"),
+        };
+        let frame_rate_hz = finite(FRAME_RATE_HZ, parse(&lookup, FRAME_RATE_HZ, 30.0)?)?;
+        if !(1.0..=1000.0).contains(&frame_rate_hz) {
+            bail!("{NODE}: {FRAME_RATE_HZ}={frame_rate_hz} must be within 1–1000 Hz");
+        }
+        let phase: Option<f64> = match lookup(FRAME_PHASE_MILLIS) {
+            None => None,
+            Some(_) => Some(finite(
+                FRAME_PHASE_MILLIS,
+                parse(&lookup, FRAME_PHASE_MILLIS, 0.0)?,
+            )?),
+        };
+        let offset = finite(
+            CLOCK_OFFSET_MILLIS,
+            parse(&lookup, CLOCK_OFFSET_MILLIS, 0.0)?,
+        )?;
+        let drift = finite(CLOCK_DRIFT_PPM, parse(&lookup, CLOCK_DRIFT_PPM, 0.0)?)?;
+        if drift.abs() > 500.0 {
+            bail!("{NODE}: {CLOCK_DRIFT_PPM}={drift} is beyond ±500 ppm");
+        }
+        let jitter = finite(
+            CLOCK_JITTER_MICROS,
+            parse(&lookup, CLOCK_JITTER_MICROS, 20.0)?,
+        )?;
+        if jitter < 0.0 {
+            bail!("{NODE}: {CLOCK_JITTER_MICROS}={jitter} must be ≥ 0");
+        }
+        let stop_after_frames = match lookup(STOP_AFTER_FRAMES) {
+            None => None,
+            Some(_) => Some(parse(&lookup, STOP_AFTER_FRAMES, 0_u64)?),
+        };
+        Ok(Config {
+            sensor_id,
+            rig,
+            backend,
+            all_joints,
+            seed: parse(&lookup, SEED, 1_u64)?,
+            frame_rate_hz,
+            frame_phase_nanos: phase.map(|ms| (ms * 1e6).round() as i64),
+            clock_offset_nanos: (offset * 1e6).round() as i64,
+            clock_drift_ppm: drift,
+            clock_jitter_nanos: jitter * 1e3,
+            stop_after_frames,
+        })
+    }
+
+    /// Frame period, ns.
+    #[must_use]
+    pub fn period_nanos(&self) -> i64 {
+        (1e9 / self.frame_rate_hz).round() as i64
+    }
+}

@@ -1,0 +1,155 @@
+//! `kinect-source`: one Kinect v2 sensor in the dataflow. Sends a `skeleton_frame` per capture
+//! on `frame` (sensor clock), answers `ntp_request`s addressed to it with its own clock on
+//! `ntp_reply`, and — when simulated — the world-frame ground truth on `ground_truth`.
+//! Configuration: [`config`].
+
+mod backend;
+mod config;
+#[cfg(test)]
+mod tests;
+
+use std::time::Duration;
+
+use dora_node_api::dora_core::config::DataId;
+use dora_node_api::{DoraNode, Event, EventStream, MetadataParameters, Parameter};
+use eyre::Context;
+use trigait_schema::{Message, NtpExchange, SkeletonFrameMessage, ports};
+
+use crate::backend::{Captured, SensorClock, Source, now_nanos};
+use crate::config::Config;
+
+fn main() -> eyre::Result<()> {
+    let config = Config::from_env()?;
+    let source = Source::new(&config, now_nanos())?;
+    let (node, events) =
+        DoraNode::init_from_env().context("kinect-source: connecting to the dora daemon")?;
+    run(config, source, node, events).map(|_| ())
+}
+
+/// Counters the node reports when it ends.
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub struct Counters {
+    /// Frames sent.
+    pub frames_sent: u64,
+    /// NTP requests answered.
+    pub ntp_answered: u64,
+    /// Inputs that could not be decoded (skipped).
+    pub malformed: u64,
+}
+
+/// The event loop: capture when due, answer NTP requests in between.
+pub fn run(
+    config: Config,
+    mut source: Source,
+    mut node: DoraNode,
+    mut events: EventStream,
+) -> eyre::Result<Counters> {
+    let frame_out = DataId::from(ports::FRAME.to_owned());
+    let truth_out = DataId::from(ports::GROUND_TRUTH.to_owned());
+    let ntp_out = DataId::from(ports::NTP_REPLY.to_owned());
+    let mut clock = SensorClock::new(
+        &config,
+        now_nanos(),
+        trigait_sim::Simulator::sensor_rng(config.seed ^ 0x5eed_c10c, 0),
+    );
+    let mut counters = Counters::default();
+    loop {
+        while let Some(due) = source.next_due().filter(|due| *due <= now_nanos()) {
+            let Some(captured) = source.capture(due.max(now_nanos()), &mut clock) else {
+                break;
+            };
+            send_capture(&mut node, &frame_out, &truth_out, captured)?;
+            counters.frames_sent += 1;
+            if config.stop_after_frames == Some(counters.frames_sent) {
+                eprintln!(
+                    "INFO kinect-source {}: stopping after {} frames ({})",
+                    config.sensor_id,
+                    counters.frames_sent,
+                    config::STOP_AFTER_FRAMES
+                );
+                return Ok(counters);
+            }
+        }
+        let Some(due) = source.next_due() else {
+            eprintln!(
+                "INFO kinect-source {}: replay finished after {} frames",
+                config.sensor_id, counters.frames_sent
+            );
+            return Ok(counters);
+        };
+        let wait_nanos = u64::try_from(due - now_nanos()).unwrap_or(0);
+        let Some(event) = events.recv_timeout(Duration::from_nanos(wait_nanos)) else {
+            break;
+        };
+        match event {
+            Event::Input { id, metadata, data } => match id.as_str() {
+                ports::NTP_REQUEST => {
+                    let t2 = clock.local(now_nanos());
+                    let request = match NtpExchange::decode(data.as_array().as_ref()) {
+                        Ok(r) => r,
+                        Err(e) => {
+                            counters.malformed += 1;
+                            eprintln!(
+                                "WARN kinect-source {}: skipping a malformed ntp_request: {e}",
+                                config.sensor_id
+                            );
+                            continue;
+                        }
+                    };
+                    if request.sensor_id != config.sensor_id {
+                        continue;
+                    }
+                    let reply = request.answered(t2, clock.local(now_nanos()));
+                    let array = reply.encode().context("encoding the NTP reply")?;
+                    node.send_output(ntp_out.clone(), metadata.parameters, array)
+                        .context("kinect-source: sending ntp_reply")?;
+                    counters.ntp_answered += 1;
+                }
+                other => eprintln!(
+                    "WARN kinect-source {}: ignoring unknown input {other:?}",
+                    config.sensor_id
+                ),
+            },
+            Event::Stop(_) | Event::InputClosed { .. } => {}
+            Event::Error(e) if e.contains("Timeout") || e.contains("timed out") => {}
+            Event::Error(e) => eprintln!(
+                "WARN kinect-source {}: event stream error: {e}",
+                config.sensor_id
+            ),
+            _ => {}
+        }
+    }
+    eprintln!(
+        "INFO kinect-source {}: {} frames sent, {} NTP requests answered, {} malformed inputs",
+        config.sensor_id, counters.frames_sent, counters.ntp_answered, counters.malformed
+    );
+    Ok(counters)
+}
+
+fn send_capture(
+    node: &mut DoraNode,
+    frame_out: &DataId,
+    truth_out: &DataId,
+    captured: Captured,
+) -> eyre::Result<()> {
+    let mut params = MetadataParameters::default();
+    params.insert(
+        ports::SENT_NANOS.to_owned(),
+        Parameter::Integer(now_nanos()),
+    );
+    if let Some(t) = captured.true_nanos {
+        params.insert(ports::TRUE_CAPTURE_NANOS.to_owned(), Parameter::Integer(t));
+    }
+    let array = SkeletonFrameMessage::from(captured.frame)
+        .encode()
+        .context("encoding a skeleton frame")?;
+    node.send_output(frame_out.clone(), params, array)
+        .context("kinect-source: sending frame")?;
+    if !captured.truth.is_empty() {
+        let rows: Vec<SkeletonFrameMessage> = captured.truth.into_iter().map(Into::into).collect();
+        let array = SkeletonFrameMessage::encode_many(&rows).context("encoding ground truth")?;
+        node.send_output(truth_out.clone(), MetadataParameters::default(), array)
+            .context("kinect-source: sending ground_truth")?;
+    }
+    Ok(())
+}

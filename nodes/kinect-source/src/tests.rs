@@ -1,0 +1,265 @@
+//! `kinect-source` contracts: configuration errors name the node, the variable and the value;
+//! the simulated sensor captures on its own 30 Hz grid with its own clock and covers the
+//! ground truth without holes; replay reads both SDK formats; the event loop answers only the
+//! NTP requests addressed to it and skips malformed input.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use dora_node_api::arrow_v59::array::{ArrayRef, RecordBatch};
+use dora_node_api::arrow_v59::datatypes::{Field, Schema};
+use dora_node_api::arrow_v59::ipc::writer::FileWriter;
+use dora_node_api::integration_testing::{
+    TestingInput, TestingOptions, TestingOutput, drain_outputs, output_channel,
+};
+use dora_node_api::{DoraNode, serde_json};
+use trigait_schema::{Message, NtpExchange};
+
+use crate::backend::{Source, TRUTH_STEP_NANOS, next_on_grid};
+use crate::config::{Backend, Config};
+
+fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
+    let map: HashMap<String, String> = pairs
+        .iter()
+        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+        .collect();
+    move |k| map.get(k).cloned()
+}
+
+fn chain(err: &eyre::Report) -> String {
+    err.chain()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
+/// Only SENSOR_ID is required; the defaults are the thesis rig, the simulator and 30 Hz.
+#[test]
+fn config_defaults() {
+    let c = Config::from_lookup(lookup(&[("SENSOR_ID", "k2")])).unwrap();
+    assert_eq!(c.sensor_id, "k2");
+    assert_eq!(c.rig, "thesis");
+    assert!(matches!(c.backend, Backend::Sim { .. }));
+    assert_eq!(c.period_nanos(), 33_333_333);
+    assert_eq!(c.frame_phase_nanos, None);
+}
+
+/// Every configuration error names the node, the variable and the raw value.
+#[test]
+fn config_errors_name_node_key_and_value() {
+    let err = Config::from_lookup(lookup(&[])).unwrap_err();
+    assert!(
+        chain(&err).contains("kinect-source: SENSOR_ID"),
+        "{}",
+        chain(&err)
+    );
+    for (key, raw) in [
+        ("BACKEND", "kinect1"),
+        ("CLOCK_DRIFT_PPM", "fast"),
+        ("FRAME_RATE_HZ", "0"),
+        ("JOINTS", "arms"),
+        ("REPLAY_SPEED", "slow"),
+    ] {
+        let mut pairs = vec![("SENSOR_ID", "k1"), (key, raw)];
+        if key == "REPLAY_SPEED" {
+            pairs.extend([("BACKEND", "replay"), ("REPLAY_FILE", "x.txt")]);
+        }
+        let err = Config::from_lookup(lookup(&pairs)).unwrap_err();
+        let text = chain(&err);
+        assert!(
+            text.contains("kinect-source") && text.contains(key),
+            "{text}"
+        );
+        if key != "FRAME_RATE_HZ" {
+            assert!(text.contains(raw), "{text}");
+        }
+    }
+}
+
+/// A sensor id the rig lacks and an unreadable replay file are fatal and say which key.
+#[test]
+fn backend_errors_name_the_key() {
+    let c = Config::from_lookup(lookup(&[("SENSOR_ID", "k9")])).unwrap();
+    let err = Source::new(&c, 0).unwrap_err();
+    assert!(chain(&err).contains("SENSOR_ID=\"k9\""), "{}", chain(&err));
+    let c = Config::from_lookup(lookup(&[
+        ("SENSOR_ID", "k1"),
+        ("BACKEND", "replay"),
+        ("REPLAY_FILE", "/nonexistent/skeleton.txt"),
+    ]))
+    .unwrap();
+    let err = Source::new(&c, 0).unwrap_err();
+    assert!(
+        chain(&err).contains("REPLAY_FILE=/nonexistent/skeleton.txt"),
+        "{}",
+        chain(&err)
+    );
+    let c =
+        Config::from_lookup(lookup(&[("SENSOR_ID", "k1"), ("RIG", "/no/such/rig.yml")])).unwrap();
+    assert!(chain(&Source::new(&c, 0).unwrap_err()).contains("RIG="));
+}
+
+/// Without the cargo feature, `freenect2` is a clear error, not a silent stub.
+#[test]
+fn freenect2_without_the_feature_is_an_error() {
+    let c = Config::from_lookup(lookup(&[("SENSOR_ID", "k1"), ("BACKEND", "freenect2")])).unwrap();
+    let text = chain(&Source::new(&c, 0).unwrap_err());
+    if cfg!(feature = "freenect2") {
+        assert!(text.contains("not implemented"), "{text}");
+    } else {
+        assert!(text.contains("not built with freenect2"), "{text}");
+    }
+}
+
+/// The grid: the first instant at or after `now`, on `phase + k·period`.
+#[test]
+fn capture_grid() {
+    assert_eq!(next_on_grid(100, 30, 5), 125);
+    assert_eq!(next_on_grid(125, 30, 5), 125);
+    assert_eq!(next_on_grid(-7, 30, 5), 5);
+}
+
+/// Simulated captures: 30 Hz on the sensor's phase, stamped by its clock (offset applied),
+/// leg joints in the camera frame, and ground truth every 2 ms with no hole or overlap.
+#[test]
+fn simulated_captures() {
+    let c = Config::from_lookup(lookup(&[
+        ("SENSOR_ID", "k2"),
+        ("CLOCK_OFFSET_MILLIS", "-40"),
+        ("CLOCK_JITTER_MICROS", "0"),
+    ]))
+    .unwrap();
+    let start = 1_700_000_000_000_000_000;
+    let mut source = Source::new(&c, start).unwrap();
+    let mut clock =
+        crate::backend::SensorClock::new(&c, start, trigait_sim::Simulator::sensor_rng(1, 0));
+    let mut last_truth = None;
+    let mut due_prev = None;
+    for _ in 0..20 {
+        let due = source.next_due().unwrap();
+        // Sensor 2 of 3: phase a third of a period.
+        assert_eq!((due - 11_111_111).rem_euclid(33_333_333), 0, "{due}");
+        if let Some(p) = due_prev {
+            assert_eq!(due - p, 33_333_333);
+        }
+        due_prev = Some(due);
+        let cap = source.capture(due, &mut clock).unwrap();
+        assert_eq!(cap.true_nanos, Some(due));
+        assert_eq!(cap.frame.local_stamp_nanos - due, -40_000_000);
+        assert!(cap.frame.joints.len() >= 4, "{:?}", cap.frame.joints);
+        for row in &cap.truth {
+            if let Some(l) = last_truth {
+                assert_eq!(row.local_stamp_nanos - l, TRUTH_STEP_NANOS);
+            }
+            last_truth = Some(row.local_stamp_nanos);
+            assert_eq!(row.joints.len(), 6);
+        }
+        assert!(last_truth.unwrap() <= due && due - last_truth.unwrap() < TRUTH_STEP_NANOS);
+    }
+}
+
+/// Replay plays the real SDK recordings (76- and 201-column layouts) and loops.
+#[test]
+fn replay_both_formats() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/kinect-v2-skeleton-replay");
+    for (file, frames) in [
+        ("JointsInfo_Straight.txt", 85),
+        ("JointsInfo_Cyrille_v2_2.txt", 970),
+    ] {
+        let path = dir.join(file);
+        let c = Config::from_lookup(lookup(&[
+            ("SENSOR_ID", "k1"),
+            ("BACKEND", "replay"),
+            ("REPLAY_SPEED", "fast"),
+            ("REPLAY_FILE", path.to_str().unwrap()),
+        ]))
+        .unwrap();
+        let mut source = Source::new(&c, 0).unwrap();
+        let mut clock =
+            crate::backend::SensorClock::new(&c, 0, trigait_sim::Simulator::sensor_rng(1, 0));
+        let mut seqs = Vec::new();
+        for i in 0..frames + 2 {
+            let cap = source.capture(i, &mut clock).unwrap();
+            assert!(!cap.frame.joints.is_empty());
+            assert!(cap.truth.is_empty() && cap.true_nanos.is_none());
+            seqs.push(cap.frame.seq);
+        }
+        assert_eq!(seqs.len(), frames as usize + 2, "looped past the end");
+    }
+}
+
+fn arrow_file(dir: &std::path::Path, name: &str, array: ArrayRef) -> std::path::PathBuf {
+    let path = dir.join(format!("{name}.arrow"));
+    let schema = Arc::new(Schema::new(vec![Field::new(
+        "msg",
+        array.data_type().clone(),
+        false,
+    )]));
+    let batch = RecordBatch::try_new(schema.clone(), vec![array]).unwrap();
+    let mut writer = FileWriter::try_new(std::fs::File::create(&path).unwrap(), &schema).unwrap();
+    writer.write(&batch).unwrap();
+    writer.finish().unwrap();
+    path
+}
+
+/// The event loop: frames go out at 30 Hz while it waits, the NTP request for this sensor is
+/// answered with t2 ≤ t3 on the sensor clock, one for another sensor is ignored, and a
+/// malformed request is counted and skipped.
+#[test]
+fn event_loop_answers_own_ntp_requests() {
+    let dir =
+        std::env::temp_dir().join(format!("trigait-kinect-source-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mine = arrow_file(
+        &dir,
+        "mine",
+        NtpExchange::request("k1", 7, 1_000).encode().unwrap(),
+    );
+    let other = arrow_file(
+        &dir,
+        "other",
+        NtpExchange::request("k3", 8, 1_000).encode().unwrap(),
+    );
+    let input: dora_node_api::integration_testing::IntegrationTestInput =
+        serde_json::from_value(serde_json::json!({
+            "id": "k1",
+            "events": [
+                {"time_offset_secs": 0.05, "type": "Input", "id": "ntp_request", "path": mine, "column": "msg"},
+                {"time_offset_secs": 0.06, "type": "Input", "id": "ntp_request", "path": other, "column": "msg"},
+                {"time_offset_secs": 0.07, "type": "Input", "id": "ntp_request", "data": [1, 2, 3]},
+                {"time_offset_secs": 0.30, "type": "Stop"}
+            ]
+        }))
+        .unwrap();
+    let (tx, mut rx) = output_channel();
+    let (node, events) = DoraNode::init_testing(
+        TestingInput::Input(input),
+        TestingOutput::ToChannel(tx),
+        TestingOptions {
+            skip_output_time_offsets: true,
+        },
+    )
+    .unwrap();
+    let c = Config::from_lookup(lookup(&[
+        ("SENSOR_ID", "k1"),
+        ("CLOCK_OFFSET_MILLIS", "20"),
+    ]))
+    .unwrap();
+    let source = Source::new(&c, crate::backend::now_nanos()).unwrap();
+    let counters = crate::run(c, source, node, events).unwrap();
+    assert_eq!(counters.ntp_answered, 1);
+    assert_eq!(counters.malformed, 1);
+    assert!(counters.frames_sent >= 5, "{counters:?}");
+    let outputs = drain_outputs(&mut rx);
+    let count = |id: &str| {
+        outputs
+            .iter()
+            .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some(id))
+            .count()
+    };
+    assert_eq!(count("ntp_reply"), 1);
+    assert_eq!(count("frame") as u64, counters.frames_sent);
+    assert!(count("ground_truth") >= 4);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,0 +1,91 @@
+//! `recorder` configuration, read from the node's `env:` block.
+//!
+//! | env var | type | default | meaning |
+//! |---|---|---|---|
+//! | `OUTPUT_DIR` | path | `out` | where `summary.json`, `trajectory.txt` and `trajectory.csv` go |
+//! | `RRD` | path or `none` | `<OUTPUT_DIR>/trigait.rrd` | the rerun recording file |
+//! | `RERUN_CONNECT` | gRPC url | none | also stream to a running viewer (`rerun+http://127.0.0.1:9876/proxy`); never blocks when none is there |
+//! | `RIG` | `thesis`, `ring-N` or YAML path | `thesis` | sensor poses drawn as axes and frusta |
+//! | `RING_CAPACITY` | integer | `1000` | positions kept per joint (thesis: 1000) for the text/CSV export |
+//!
+//! Inputs: `fused_pose`, `frame_timing`, and per source `frame_<id>` (raw joints) and
+//! `truth_<id>` (ground truth of simulated sources).
+
+use std::path::PathBuf;
+
+use eyre::{bail, eyre};
+use trigait_rig::Rig;
+
+/// Env var: output directory.
+pub const OUTPUT_DIR: &str = "OUTPUT_DIR";
+/// Env var: rrd path.
+pub const RRD: &str = "RRD";
+/// Env var: viewer url.
+pub const RERUN_CONNECT: &str = "RERUN_CONNECT";
+/// Env var: rig.
+pub const RIG: &str = "RIG";
+/// Env var: ring capacity.
+pub const RING_CAPACITY: &str = "RING_CAPACITY";
+
+const NODE: &str = "recorder";
+
+/// The node's configuration.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Output directory.
+    pub out_dir: PathBuf,
+    /// The `.rrd` file, if any.
+    pub rrd: Option<PathBuf>,
+    /// A viewer to stream to, if any.
+    pub connect: Option<String>,
+    /// The rig.
+    pub rig: Rig,
+    /// Positions kept per joint.
+    pub ring_capacity: usize,
+}
+
+impl Config {
+    /// From the process environment.
+    pub fn from_env() -> eyre::Result<Self> {
+        Self::from_lookup(|k| std::env::var(k).ok())
+    }
+
+    /// From any lookup (tests).
+    pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
+        let out_dir = PathBuf::from(lookup(OUTPUT_DIR).unwrap_or_else(|| "out".into()));
+        let rrd = match lookup(RRD) {
+            None => Some(out_dir.join("trigait.rrd")),
+            Some(s) if s.trim() == "none" => None,
+            Some(s) => Some(PathBuf::from(s)),
+        };
+        let connect = lookup(RERUN_CONNECT).filter(|s| !s.trim().is_empty());
+        if let Some(url) = &connect
+            && !(url.starts_with("rerun+http://")
+                || url.starts_with("rerun+https://")
+                || url.starts_with("rerun://"))
+        {
+            bail!(
+                "{NODE}: {RERUN_CONNECT}={url:?} is invalid: expected a rerun gRPC proxy url like rerun+http://127.0.0.1:9876/proxy"
+            );
+        }
+        let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
+        let rig =
+            Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
+        let ring_capacity = match lookup(RING_CAPACITY) {
+            None => 1000,
+            Some(raw) => match raw.trim().parse::<usize>() {
+                Ok(n) if n > 0 => n,
+                _ => {
+                    bail!("{NODE}: {RING_CAPACITY}={raw:?} is invalid: expected a positive integer")
+                }
+            },
+        };
+        Ok(Config {
+            out_dir,
+            rrd,
+            connect,
+            rig,
+            ring_capacity,
+        })
+    }
+}

@@ -1,0 +1,154 @@
+//! `recorder`: the end of the graph. Logs everything to rerun (an `.rrd` file by default, a
+//! live viewer when `RERUN_CONNECT` is set), keeps the thesis ring buffer, and when the graph
+//! stops writes `trajectory.txt`, `trajectory.csv` and `summary.json` into `OUTPUT_DIR`.
+//! Configuration: [`config`]; entity paths: [`viz`].
+
+mod config;
+mod export;
+mod stats;
+#[cfg(test)]
+mod tests;
+mod viz;
+
+use dora_node_api::{DoraNode, Event, EventStream, get_integer_param};
+use eyre::Context;
+use trigait_schema::{FrameTiming, FusedPose, Message, SkeletonFrameMessage, ports};
+
+use crate::config::Config;
+use crate::export::Ring;
+use crate::stats::{Stats, Summary};
+
+fn main() -> eyre::Result<()> {
+    let config = Config::from_env()?;
+    let (node, events) =
+        DoraNode::init_from_env().context("recorder: connecting to the dora daemon")?;
+    run(config, node, events).map(|_| ())
+}
+
+fn now_nanos() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
+}
+
+/// The event loop; returns the summary it wrote.
+pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Result<Summary> {
+    std::fs::create_dir_all(&config.out_dir)
+        .with_context(|| format!("recorder: creating OUTPUT_DIR={}", config.out_dir.display()))?;
+    let rec = viz::open(&config)?;
+    viz::log_static(&rec, &config.rig).context("recorder: logging the rig")?;
+    let mut stats = Stats::default();
+    let mut ring = Ring::new(config.ring_capacity);
+    let mut rerun_errors = 0_u64;
+    while let Some(event) = events.recv() {
+        let now = now_nanos();
+        match event {
+            Event::Input { id, metadata, data } => {
+                let id = id.as_str();
+                let array = data.as_array().as_ref();
+                let logged = if id == ports::FUSED_POSE {
+                    match FusedPose::decode(array) {
+                        Ok(pose) => {
+                            let truth: Vec<_> = pose
+                                .joints
+                                .keys()
+                                .filter_map(|j| stats.truth_at(*j, pose.stamp_nanos))
+                                .collect();
+                            let logged = viz::log_pose(&rec, &pose, &truth);
+                            ring.push(&pose);
+                            stats.push_pose(
+                                pose,
+                                now,
+                                get_integer_param(&metadata.parameters, ports::TRIGGER_SENT_NANOS),
+                                get_integer_param(&metadata.parameters, ports::MISSING_SENSORS),
+                            );
+                            logged
+                        }
+                        Err(e) => {
+                            stats.malformed += 1;
+                            eprintln!("WARN recorder: skipping a malformed fused pose: {e}");
+                            Ok(())
+                        }
+                    }
+                } else if id == ports::FRAME_TIMING {
+                    match FrameTiming::decode_many(array) {
+                        Ok(rows) => {
+                            stats.push_timing(&rows);
+                            viz::log_timing(&rec, &rows)
+                        }
+                        Err(e) => {
+                            stats.malformed += 1;
+                            eprintln!("WARN recorder: skipping malformed frame timings: {e}");
+                            Ok(())
+                        }
+                    }
+                } else if let Some(sensor) = ports::sensor_of(id, ports::TRUTH_INPUT_PREFIX) {
+                    match SkeletonFrameMessage::decode_many(array) {
+                        Ok(rows) => {
+                            stats.push_truth(rows.into_iter().map(|m| m.frame).collect());
+                            Ok(())
+                        }
+                        Err(e) => {
+                            stats.malformed += 1;
+                            eprintln!(
+                                "WARN recorder: skipping malformed ground truth of {sensor}: {e}"
+                            );
+                            Ok(())
+                        }
+                    }
+                } else if let Some(sensor) = ports::sensor_of(id, ports::FRAME_INPUT_PREFIX) {
+                    match SkeletonFrameMessage::decode(array) {
+                        Ok(m) => {
+                            stats.push_frame(sensor, m.frame.seq, now);
+                            viz::log_raw(&rec, &m.frame, now)
+                        }
+                        Err(e) => {
+                            stats.malformed += 1;
+                            eprintln!("WARN recorder: skipping a malformed frame of {sensor}: {e}");
+                            Ok(())
+                        }
+                    }
+                } else {
+                    eprintln!("WARN recorder: ignoring unknown input {id:?}");
+                    Ok(())
+                };
+                if let Err(e) = logged {
+                    rerun_errors += 1;
+                    if rerun_errors == 1 {
+                        eprintln!(
+                            "ERROR recorder: rerun logging failed (further failures counted): {e:#}"
+                        );
+                    }
+                }
+            }
+            Event::InputClosed { id } => {
+                if let Some(sensor) = ports::sensor_of(id.as_str(), ports::FRAME_INPUT_PREFIX) {
+                    eprintln!("WARN recorder: source {sensor} stopped");
+                    stats.source_closed(sensor, now);
+                }
+            }
+            Event::Error(e) => eprintln!("WARN recorder: event stream error: {e}"),
+            _ => {}
+        }
+    }
+    let summary = stats.summary(now_nanos());
+    ring.write(&config.out_dir)
+        .context("recorder: writing the trajectory exports")?;
+    let path = config.out_dir.join("summary.json");
+    let json =
+        serde_json::to_string_pretty(&summary).context("recorder: serialising the summary")?;
+    std::fs::write(&path, json).with_context(|| format!("recorder: writing {}", path.display()))?;
+    rec.flush_blocking().ok();
+    drop(rec);
+    eprintln!(
+        "INFO recorder: {} poses, RMSE {} m, latency p50 {:.2} ms p99 {:.2} ms; wrote {}",
+        summary.sets_fused,
+        summary
+            .rmse_all_m
+            .map_or_else(|| "n/a".to_owned(), |r| format!("{r:.4}")),
+        summary.latency_ms.p50,
+        summary.latency_ms.p99,
+        path.display()
+    );
+    Ok(summary)
+}

@@ -1,0 +1,385 @@
+//! What `summary.json` reports, accumulated as the recording runs: fused-pose error against the
+//! simulator's ground truth, NTP mapping error per sensor, end-to-end latency, dropped and
+//! incomplete sets, and gaps in each source's stream.
+
+use std::collections::{BTreeMap, VecDeque};
+
+use nalgebra::Point3;
+use serde::Serialize;
+use trigait_schema::{FrameTiming, FusedPose};
+use trigait_skeleton::Joint;
+
+/// Ground truth older than this behind the newest sample is forgotten, ns.
+const TRUTH_HORIZON_NANOS: i64 = 5_000_000_000;
+/// Truth samples further apart than this around an instant are not interpolated, ns.
+const TRUTH_MAX_SPAN_NANOS: i64 = 20_000_000;
+/// A source silent for longer than this (arrival to arrival) has a gap, ns.
+pub const GAP_NANOS: i64 = 150_000_000;
+
+/// Running totals.
+#[derive(Debug, Default)]
+pub struct Stats {
+    truth: BTreeMap<i64, BTreeMap<Joint, Point3<f64>>>,
+    pending: VecDeque<FusedPose>,
+    sq_err: BTreeMap<Joint, (f64, u64)>,
+    axis_sq: [f64; 3],
+    axis_n: u64,
+    poses_without_truth: u64,
+    timing: BTreeMap<String, SensorTiming>,
+    latency_nanos: Vec<i64>,
+    age_nanos: Vec<i64>,
+    sets: u64,
+    last_seq: Option<u64>,
+    dropped_sets: u64,
+    incomplete_sets: u64,
+    joints_fused: u64,
+    joints_skipped: u64,
+    skip_reasons: BTreeMap<String, u64>,
+    frames: BTreeMap<String, SensorFrames>,
+    /// Inputs that could not be decoded.
+    pub malformed: u64,
+}
+
+#[derive(Debug, Default)]
+struct SensorTiming {
+    abs_err_nanos: Vec<i64>,
+    unsynchronised: u64,
+    last_offset_nanos: Option<i64>,
+    last_drift_ppm: Option<f64>,
+}
+
+#[derive(Debug, Default)]
+struct SensorFrames {
+    count: u64,
+    last_seq: Option<u64>,
+    seq_gaps: u64,
+    last_arrival_nanos: Option<i64>,
+    gaps: Vec<Gap>,
+    closed_at_nanos: Option<i64>,
+}
+
+/// A stretch without frames from one source.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Gap {
+    /// The source.
+    pub sensor: String,
+    /// When the last frame before the gap arrived, ns since the epoch.
+    pub from_nanos: i64,
+    /// Length, seconds (to the next frame, or to the end of the run).
+    pub duration_secs: f64,
+    /// Whether the source never came back (stopped or killed).
+    pub until_end: bool,
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    /// Raw frames received per source.
+    pub frames_in: BTreeMap<String, u64>,
+    /// Fused poses received.
+    pub sets_fused: u64,
+    /// Sets never received (gaps in the set sequence).
+    pub dropped_sets: u64,
+    /// Sets that lacked at least one sensor.
+    pub incomplete_sets: u64,
+    /// Joints fused in all poses.
+    pub joints_fused: u64,
+    /// Joints skipped, by reason.
+    pub joints_skipped: u64,
+    /// Skip reasons and their counts.
+    pub skip_reasons: BTreeMap<String, u64>,
+    /// Per-joint RMSE against ground truth, metres (simulated sources only).
+    pub rmse_m: BTreeMap<String, f64>,
+    /// RMSE over all joints, metres.
+    pub rmse_all_m: Option<f64>,
+    /// RMSE per world axis (x, y, z), metres.
+    pub rmse_xyz_m: Option<[f64; 3]>,
+    /// Joint estimates compared with ground truth.
+    pub truth_samples: u64,
+    /// Poses for which no ground truth was at hand.
+    pub poses_without_truth: u64,
+    /// NTP mapping error per sensor.
+    pub ntp: BTreeMap<String, NtpSummary>,
+    /// End-to-end latency, newest contributing frame sent → pose recorded, ms.
+    pub latency_ms: Percentiles,
+    /// Pose age when recorded (recorder clock − fusion instant), ms; includes the wait for the
+    /// frame after the instant that interpolation needs.
+    pub age_ms: Percentiles,
+    /// Gaps in the sources' streams.
+    pub gaps: Vec<Gap>,
+    /// Inputs that could not be decoded.
+    pub malformed_inputs: u64,
+}
+
+/// NTP error of one sensor.
+#[derive(Debug, Clone, Serialize)]
+pub struct NtpSummary {
+    /// Frames mapped to the server clock with a known true capture time.
+    pub frames_checked: u64,
+    /// Frames before the sensor was synchronised.
+    pub frames_unsynchronised: u64,
+    /// |mapped − true| percentiles, ms.
+    pub abs_error_ms: Percentiles,
+    /// Share of checked frames with |error| < 1 ms.
+    pub share_below_1ms: f64,
+    /// Last offset estimate (sensor − server), ms.
+    pub offset_ms: Option<f64>,
+    /// Last drift estimate, ppm.
+    pub drift_ppm: Option<f64>,
+}
+
+/// p50/p99/max of a sample, ms.
+#[derive(Debug, Clone, Copy, Serialize, Default, PartialEq)]
+pub struct Percentiles {
+    /// Samples.
+    pub count: usize,
+    /// Median.
+    pub p50: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+impl Percentiles {
+    /// From nanosecond samples.
+    #[must_use]
+    pub fn of_nanos(values: &[i64]) -> Self {
+        if values.is_empty() {
+            return Self::default();
+        }
+        let mut v = values.to_vec();
+        v.sort_unstable();
+        let at = |q: f64| {
+            let i = ((v.len() - 1) as f64 * q).round() as usize;
+            v.get(i).copied().unwrap_or(0) as f64 * 1e-6
+        };
+        Self {
+            count: v.len(),
+            p50: at(0.5),
+            p99: at(0.99),
+            max: at(1.0),
+        }
+    }
+}
+
+impl Stats {
+    /// Ground truth rows (world frame, `local_stamp_nanos` = true instant).
+    pub fn push_truth(&mut self, rows: Vec<trigait_skeleton::SkeletonFrame>) {
+        for row in rows {
+            let joints = row
+                .joints
+                .iter()
+                .map(|s| (s.joint, s.position_in_kinect))
+                .collect();
+            self.truth.insert(row.local_stamp_nanos, joints);
+        }
+        if let Some((&newest, _)) = self.truth.last_key_value() {
+            let keep = self.truth.split_off(&(newest - TRUTH_HORIZON_NANOS));
+            self.truth = keep;
+        }
+        self.score_pending(false);
+    }
+
+    /// True position of `joint` at `at_nanos`, interpolated between the truth samples around it.
+    #[must_use]
+    pub fn truth_at(&self, joint: Joint, at_nanos: i64) -> Option<Point3<f64>> {
+        let (t0, a) = self.truth.range(..=at_nanos).next_back()?;
+        let (t1, b) = self.truth.range(at_nanos..).next()?;
+        if t1 - t0 > TRUTH_MAX_SPAN_NANOS {
+            return None;
+        }
+        let (a, b) = (a.get(&joint)?, b.get(&joint)?);
+        if t1 == t0 {
+            return Some(*a);
+        }
+        let f = (at_nanos - t0) as f64 / (t1 - t0) as f64;
+        Some(a + (b - a) * f)
+    }
+
+    /// A fused pose recorded at `now_nanos`; `trigger_sent_nanos` and `missing_sensors` come
+    /// from the metadata `sync` attached.
+    pub fn push_pose(
+        &mut self,
+        pose: FusedPose,
+        now_nanos: i64,
+        trigger_sent_nanos: Option<i64>,
+        missing_sensors: Option<i64>,
+    ) {
+        self.sets += 1;
+        if let Some(last) = self.last_seq
+            && pose.set_seq > last + 1
+        {
+            self.dropped_sets += pose.set_seq - last - 1;
+        }
+        self.last_seq = Some(self.last_seq.map_or(pose.set_seq, |l| l.max(pose.set_seq)));
+        if missing_sensors.is_some_and(|m| m > 0) {
+            self.incomplete_sets += 1;
+        }
+        if let Some(sent) = trigger_sent_nanos {
+            self.latency_nanos.push(now_nanos - sent);
+        }
+        self.age_nanos.push(now_nanos - pose.stamp_nanos);
+        self.joints_fused += pose.joints.len() as u64;
+        self.joints_skipped += pose.skipped.len() as u64;
+        for reason in pose.skipped.values() {
+            *self.skip_reasons.entry(reason.clone()).or_default() += 1;
+        }
+        if !self.truth.is_empty() {
+            self.pending.push_back(pose);
+        }
+        self.score_pending(false);
+    }
+
+    fn score_pending(&mut self, at_end: bool) {
+        let newest = self.truth.last_key_value().map(|(t, _)| *t);
+        while let Some(pose) = self.pending.front() {
+            if !at_end && newest.is_none_or(|n| n < pose.stamp_nanos) {
+                break;
+            }
+            let Some(pose) = self.pending.pop_front() else {
+                break;
+            };
+            let mut any = false;
+            for (joint, fused) in &pose.joints {
+                let Some(truth) = self.truth_at(*joint, pose.stamp_nanos) else {
+                    continue;
+                };
+                any = true;
+                let d = fused.position - truth;
+                let e = self.sq_err.entry(*joint).or_default();
+                e.0 += d.norm_squared();
+                e.1 += 1;
+                for (k, v) in d.iter().enumerate() {
+                    self.axis_sq[k] += v * v;
+                }
+                self.axis_n += 1;
+            }
+            if !any {
+                self.poses_without_truth += 1;
+            }
+        }
+    }
+
+    /// Frame timings from `sync`.
+    pub fn push_timing(&mut self, rows: &[FrameTiming]) {
+        for row in rows {
+            let t = self.timing.entry(row.sensor_id.clone()).or_default();
+            match (row.server_stamp_nanos, row.error_nanos()) {
+                (None, _) => t.unsynchronised += 1,
+                (Some(_), Some(err)) => t.abs_err_nanos.push(err.abs()),
+                (Some(_), None) => {}
+            }
+            if row.offset_nanos.is_some() {
+                t.last_offset_nanos = row.offset_nanos;
+                t.last_drift_ppm = row.drift_ppm;
+            }
+        }
+    }
+
+    /// A raw frame of `sensor` arrived at `now_nanos`.
+    pub fn push_frame(&mut self, sensor: &str, seq: u64, now_nanos: i64) {
+        let f = self.frames.entry(sensor.to_owned()).or_default();
+        f.count += 1;
+        if let Some(last) = f.last_seq
+            && seq > last + 1
+        {
+            f.seq_gaps += seq - last - 1;
+        }
+        f.last_seq = Some(seq);
+        if let Some(last) = f.last_arrival_nanos
+            && now_nanos - last > GAP_NANOS
+        {
+            f.gaps.push(Gap {
+                sensor: sensor.to_owned(),
+                from_nanos: last,
+                duration_secs: (now_nanos - last) as f64 * 1e-9,
+                until_end: false,
+            });
+        }
+        f.last_arrival_nanos = Some(now_nanos);
+    }
+
+    /// The source's frame input closed (it stopped or was killed).
+    pub fn source_closed(&mut self, sensor: &str, now_nanos: i64) {
+        self.frames
+            .entry(sensor.to_owned())
+            .or_default()
+            .closed_at_nanos = Some(now_nanos);
+    }
+
+    /// The summary at `end_nanos`.
+    #[must_use]
+    pub fn summary(&mut self, end_nanos: i64) -> Summary {
+        self.score_pending(true);
+        let mut gaps = Vec::new();
+        for (sensor, f) in &self.frames {
+            gaps.extend(f.gaps.iter().cloned());
+            if let Some(last) = f.last_arrival_nanos
+                && (f.closed_at_nanos.is_some() || end_nanos - last > GAP_NANOS)
+                && end_nanos - last > GAP_NANOS
+            {
+                gaps.push(Gap {
+                    sensor: sensor.clone(),
+                    from_nanos: last,
+                    duration_secs: (end_nanos - last) as f64 * 1e-9,
+                    until_end: true,
+                });
+            }
+        }
+        let total: (f64, u64) = self
+            .sq_err
+            .values()
+            .fold((0.0, 0), |acc, (s, n)| (acc.0 + s, acc.1 + n));
+        Summary {
+            frames_in: self
+                .frames
+                .iter()
+                .map(|(k, f)| (k.clone(), f.count))
+                .collect(),
+            sets_fused: self.sets,
+            dropped_sets: self.dropped_sets,
+            incomplete_sets: self.incomplete_sets,
+            joints_fused: self.joints_fused,
+            joints_skipped: self.joints_skipped,
+            skip_reasons: self.skip_reasons.clone(),
+            rmse_m: self
+                .sq_err
+                .iter()
+                .filter(|(_, (_, n))| *n > 0)
+                .map(|(j, (s, n))| (j.name().to_owned(), (s / *n as f64).sqrt()))
+                .collect(),
+            rmse_all_m: (total.1 > 0).then(|| (total.0 / total.1 as f64).sqrt()),
+            rmse_xyz_m: (self.axis_n > 0)
+                .then(|| self.axis_sq.map(|s| (s / self.axis_n as f64).sqrt())),
+            truth_samples: total.1,
+            poses_without_truth: self.poses_without_truth,
+            ntp: self
+                .timing
+                .iter()
+                .map(|(id, t)| {
+                    let below = t.abs_err_nanos.iter().filter(|e| **e < 1_000_000).count();
+                    (
+                        id.clone(),
+                        NtpSummary {
+                            frames_checked: t.abs_err_nanos.len() as u64,
+                            frames_unsynchronised: t.unsynchronised,
+                            abs_error_ms: Percentiles::of_nanos(&t.abs_err_nanos),
+                            share_below_1ms: if t.abs_err_nanos.is_empty() {
+                                0.0
+                            } else {
+                                below as f64 / t.abs_err_nanos.len() as f64
+                            },
+                            offset_ms: t.last_offset_nanos.map(|o| o as f64 * 1e-6),
+                            drift_ppm: t.last_drift_ppm,
+                        },
+                    )
+                })
+                .collect(),
+            latency_ms: Percentiles::of_nanos(&self.latency_nanos),
+            age_ms: Percentiles::of_nanos(&self.age_nanos),
+            gaps,
+            malformed_inputs: self.malformed,
+        }
+    }
+}

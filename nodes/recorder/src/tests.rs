@@ -1,0 +1,249 @@
+//! `recorder` contracts: configuration errors name node, key and value; the summary scores
+//! fused poses against interpolated ground truth, counts dropped and incomplete sets and
+//! source gaps, and reports NTP error shares; the ring keeps 1000 positions per joint and
+//! exports them; an empty run still writes a valid summary and recording.
+
+use std::collections::{BTreeMap, HashMap};
+
+use dora_node_api::integration_testing::{
+    IntegrationTestInput, TestingInput, TestingOptions, TestingOutput, output_channel,
+};
+use dora_node_api::{DoraNode, serde_json};
+use nalgebra::{Matrix3, Point3};
+use trigait_schema::{FrameTiming, FusedJoint, FusedPose};
+use trigait_skeleton::{Joint, JointSample, SkeletonFrame, TrackingState};
+
+use crate::config::Config;
+use crate::export::Ring;
+use crate::stats::{Percentiles, Stats};
+
+fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
+    let map: HashMap<String, String> = pairs
+        .iter()
+        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+        .collect();
+    move |k| map.get(k).cloned()
+}
+
+fn chain(err: &eyre::Report) -> String {
+    err.chain()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
+/// Defaults: `out/trigait.rrd`, no viewer, thesis rig, 1000 positions.
+#[test]
+fn config_defaults_and_errors() {
+    let c = Config::from_lookup(lookup(&[])).unwrap();
+    assert_eq!(c.rrd.unwrap(), std::path::Path::new("out/trigait.rrd"));
+    assert!(c.connect.is_none());
+    assert_eq!(c.ring_capacity, 1000);
+    assert!(
+        Config::from_lookup(lookup(&[("RRD", "none")]))
+            .unwrap()
+            .rrd
+            .is_none()
+    );
+    for (key, raw) in [
+        ("RING_CAPACITY", "0"),
+        ("RERUN_CONNECT", "localhost:9876"),
+        ("RIG", "ring-2"),
+    ] {
+        let text = chain(&Config::from_lookup(lookup(&[(key, raw)])).unwrap_err());
+        assert!(
+            text.starts_with("recorder: ") && text.contains(key) && text.contains(raw),
+            "{text}"
+        );
+    }
+}
+
+fn truth_row(t: i64, x: f64) -> SkeletonFrame {
+    SkeletonFrame {
+        sensor_id: "truth:k1".into(),
+        seq: 0,
+        local_stamp_nanos: t,
+        joints: vec![JointSample {
+            joint: Joint::KneeLeft,
+            position_in_kinect: Point3::new(x, 0.0, 0.5),
+            state: TrackingState::Tracked,
+        }],
+    }
+}
+
+fn pose(seq: u64, t: i64, x: f64) -> FusedPose {
+    let mut joints = BTreeMap::new();
+    joints.insert(
+        Joint::KneeLeft,
+        FusedJoint {
+            position: Point3::new(x, 0.0, 0.5),
+            covariance: Matrix3::identity() * 1e-4,
+            sensors_used: vec!["k1".into(), "k2".into()],
+            residual_m: 0.0,
+            condition_number: 1.0,
+            estimator: "fusion".into(),
+        },
+    );
+    let mut skipped = BTreeMap::new();
+    skipped.insert(Joint::AnkleLeft, "too few sensors".to_owned());
+    FusedPose {
+        set_seq: seq,
+        stamp_nanos: t,
+        joints,
+        skipped,
+    }
+}
+
+/// RMSE against truth interpolated at the fusion instant; seq gaps are dropped sets; missing
+/// sensors make a set incomplete; latency and NTP shares are percentiles of what came in.
+#[test]
+fn summary_scores_and_counts() {
+    let mut stats = Stats::default();
+    // Truth moves 1 m/s along x, sampled every 2 ms.
+    stats.push_truth(
+        (0..50)
+            .map(|i| truth_row(i * 2_000_000, i as f64 * 0.002))
+            .collect(),
+    );
+    // Pose at 15 ms: truth x = 0.015; fused 3 cm off. Pose at 33 ms exact. Seq 2 never arrives.
+    stats.push_pose(
+        pose(0, 15_000_000, 0.045),
+        20_000_000,
+        Some(18_000_000),
+        Some(0),
+    );
+    stats.push_pose(
+        pose(1, 33_000_000, 0.033),
+        40_000_000,
+        Some(36_000_000),
+        Some(1),
+    );
+    stats.push_pose(
+        pose(3, 60_000_000, 0.060),
+        66_000_000,
+        Some(64_000_000),
+        None,
+    );
+    stats.push_timing(&[
+        FrameTiming {
+            sensor_id: "k1".into(),
+            seq: 0,
+            local_stamp_nanos: 0,
+            server_stamp_nanos: None,
+            uncertainty_nanos: None,
+            offset_nanos: None,
+            drift_ppm: None,
+            true_stamp_nanos: Some(0),
+        },
+        FrameTiming {
+            sensor_id: "k1".into(),
+            seq: 1,
+            local_stamp_nanos: 0,
+            server_stamp_nanos: Some(1_000_300_000),
+            uncertainty_nanos: Some(100_000),
+            offset_nanos: Some(5_000_000),
+            drift_ppm: Some(10.0),
+            true_stamp_nanos: Some(1_000_000_000),
+        },
+        FrameTiming {
+            sensor_id: "k1".into(),
+            seq: 2,
+            local_stamp_nanos: 0,
+            server_stamp_nanos: Some(2_002_000_000),
+            uncertainty_nanos: Some(100_000),
+            offset_nanos: Some(5_000_000),
+            drift_ppm: Some(10.0),
+            true_stamp_nanos: Some(2_000_000_000),
+        },
+    ]);
+    for (seq, t) in [(0, 0), (1, 33_000_000), (2, 400_000_000)] {
+        stats.push_frame("k1", seq, t);
+    }
+    let s = stats.summary(1_000_000_000);
+    assert_eq!(s.sets_fused, 3);
+    assert_eq!(s.dropped_sets, 1);
+    assert_eq!(s.incomplete_sets, 1);
+    assert_eq!(s.joints_skipped, 3);
+    let rmse = s.rmse_m["knee_left"];
+    let expected = (0.03_f64.powi(2) / 3.0).sqrt();
+    assert!((rmse - expected).abs() < 1e-9, "{rmse} vs {expected}");
+    assert_eq!(s.truth_samples, 3);
+    assert!((s.latency_ms.p50 - 2.0).abs() < 1e-9);
+    let ntp = &s.ntp["k1"];
+    assert_eq!((ntp.frames_checked, ntp.frames_unsynchronised), (2, 1));
+    assert!((ntp.share_below_1ms - 0.5).abs() < 1e-12);
+    assert_eq!(ntp.offset_ms, Some(5.0));
+    // One gap between frames (33 → 400 ms) and one to the end (400 → 1000 ms).
+    assert_eq!(s.gaps.len(), 2, "{:?}", s.gaps);
+    assert!(
+        s.gaps
+            .iter()
+            .any(|g| g.until_end && (g.duration_secs - 0.6).abs() < 1e-9)
+    );
+    assert_eq!(s.frames_in["k1"], 3);
+}
+
+/// Percentiles of nothing are zeros, of one value that value.
+#[test]
+fn percentiles() {
+    assert_eq!(Percentiles::of_nanos(&[]), Percentiles::default());
+    let p = Percentiles::of_nanos(&[3_000_000]);
+    assert_eq!((p.count, p.p50, p.p99, p.max), (1, 3.0, 3.0, 3.0));
+    let v: Vec<i64> = (1..=100).map(|i| i * 1_000_000).collect();
+    let p = Percentiles::of_nanos(&v);
+    assert_eq!((p.p50, p.p99, p.max), (51.0, 99.0, 100.0));
+}
+
+/// The ring keeps the newest `capacity` positions per joint; the text file has one line per
+/// instant with x y z per joint, the CSV one row per joint and instant.
+#[test]
+fn ring_and_exports() {
+    let mut ring = Ring::new(1000);
+    for i in 0..1200 {
+        ring.push(&pose(i, i as i64 * 33_333_333, i as f64 * 0.001));
+    }
+    assert_eq!(ring.len(Joint::KneeLeft), 1000);
+    let text = ring.thesis_text();
+    let lines: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(lines.len(), 1000);
+    let first: Vec<f64> = lines[0]
+        .split_whitespace()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(first, [0.0, 0.2, 0.0, 0.5]);
+    let csv = ring.csv();
+    assert_eq!(csv.lines().count(), 1001);
+    assert!(csv.lines().nth(1).unwrap().ends_with(",k1;k2"));
+}
+
+/// A run with no data still writes summary.json, the exports and a recording.
+#[test]
+fn empty_run_writes_outputs() {
+    let dir = std::env::temp_dir().join(format!("trigait-recorder-test-{}", std::process::id()));
+    let input: IntegrationTestInput = serde_json::from_value(serde_json::json!({
+        "id": "recorder",
+        "events": [
+            {"time_offset_secs": 0.0, "type": "Input", "id": "fused_pose", "data": [1]},
+            {"time_offset_secs": 0.01, "type": "Stop"}
+        ]
+    }))
+    .unwrap();
+    let (tx, _rx) = output_channel();
+    let (node, events) = DoraNode::init_testing(
+        TestingInput::Input(input),
+        TestingOutput::ToChannel(tx),
+        TestingOptions::default(),
+    )
+    .unwrap();
+    let out = dir.to_str().unwrap().to_owned();
+    let config = Config::from_lookup(lookup(&[("OUTPUT_DIR", &out)])).unwrap();
+    let summary = crate::run(config, node, events).unwrap();
+    assert_eq!(summary.sets_fused, 0);
+    assert_eq!(summary.malformed_inputs, 1);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["sets_fused"], 0);
+    assert!(dir.join("trajectory.txt").exists() && dir.join("trajectory.csv").exists());
+    assert!(std::fs::metadata(dir.join("trigait.rrd")).unwrap().len() > 0);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,0 +1,114 @@
+//! `sync` configuration, read from the node's `env:` block.
+//!
+//! | env var | type | default | meaning |
+//! |---|---|---|---|
+//! | `POLICY` | `interpolate` or `slots` | `interpolate` | how frames become aligned sets |
+//! | `INTERPOLATION` | `linear` or `cubic-hermite` | `linear` | resampling under `interpolate` |
+//! | `FUSION_RATE_HZ` | Hz | `30` | fusion instants under `interpolate` |
+//! | `SLOT_MILLIS` | ms | `15` | slot length under `slots` (cycle = (n+1) slots) |
+//! | `LATENCY_DEADLINE_MILLIS` | ms | `100` | a set goes out incomplete after this (must exceed transport delay) |
+//! | `NTP_INTERVAL_MILLIS` | ms | `100` | one NTP exchange per sensor this often |
+//! | `SENSORS` | comma list | from the `frame_<id>` inputs | sensor ids, in slot order |
+//!
+//! Inputs: `frame_<id>` and `ntp_<id>` per source, `tick` (a `dora/timer/millis/N` timer, ≤ 20 ms).
+
+use eyre::{bail, eyre};
+use trigait_sync::{Interpolation, Policy, SyncParams};
+
+/// Env var: policy.
+pub const POLICY: &str = "POLICY";
+/// Env var: interpolation.
+pub const INTERPOLATION: &str = "INTERPOLATION";
+/// Env var: fusion rate.
+pub const FUSION_RATE_HZ: &str = "FUSION_RATE_HZ";
+/// Env var: slot length.
+pub const SLOT_MILLIS: &str = "SLOT_MILLIS";
+/// Env var: latency deadline.
+pub const LATENCY_DEADLINE_MILLIS: &str = "LATENCY_DEADLINE_MILLIS";
+/// Env var: NTP interval.
+pub const NTP_INTERVAL_MILLIS: &str = "NTP_INTERVAL_MILLIS";
+/// Env var: sensor ids.
+pub const SENSORS: &str = "SENSORS";
+
+const NODE: &str = "sync";
+
+/// The node's configuration.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// The sync parameters.
+    pub params: SyncParams,
+    /// NTP exchange period per sensor, ns.
+    pub ntp_interval_nanos: i64,
+    /// Sensor ids given explicitly (else from the inputs).
+    pub sensors: Option<Vec<String>>,
+}
+
+fn millis(lookup: &impl Fn(&str) -> Option<String>, key: &str, default: f64) -> eyre::Result<i64> {
+    let v = match lookup(key) {
+        None => default,
+        Some(raw) => raw
+            .trim()
+            .parse::<f64>()
+            .map_err(|e| eyre!("{NODE}: {key}={raw:?} is invalid: {e}"))?,
+    };
+    if !(v.is_finite() && v > 0.0) {
+        bail!("{NODE}: {key}={v} must be a positive number of milliseconds");
+    }
+    Ok((v * 1e6).round() as i64)
+}
+
+impl Config {
+    /// From the process environment.
+    pub fn from_env() -> eyre::Result<Self> {
+        Self::from_lookup(|k| std::env::var(k).ok())
+    }
+
+    /// From any lookup (tests).
+    pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
+        let mut params = SyncParams::default();
+        if let Some(raw) = lookup(POLICY) {
+            let policy: Policy = raw
+                .parse()
+                .map_err(|e| eyre!("{NODE}: {POLICY}={raw:?} is invalid: {e}"))?;
+            params = params.with_policy(policy);
+        }
+        if let Some(raw) = lookup(INTERPOLATION) {
+            let i: Interpolation = raw
+                .parse()
+                .map_err(|e| eyre!("{NODE}: {INTERPOLATION}={raw:?} is invalid: {e}"))?;
+            params = params.with_interpolation(i);
+        }
+        if let Some(raw) = lookup(FUSION_RATE_HZ) {
+            let hz: f64 = raw
+                .trim()
+                .parse()
+                .map_err(|e| eyre!("{NODE}: {FUSION_RATE_HZ}={raw:?} is invalid: {e}"))?;
+            params = params.with_fusion_rate_hz(hz);
+        }
+        params = params
+            .with_slot_nanos(millis(&lookup, SLOT_MILLIS, 15.0)?)
+            .with_latency_deadline_nanos(millis(&lookup, LATENCY_DEADLINE_MILLIS, 100.0)?);
+        params
+            .validate()
+            .map_err(|e| eyre!("{NODE}: invalid sync parameters ({POLICY}, {FUSION_RATE_HZ}, {SLOT_MILLIS}, {LATENCY_DEADLINE_MILLIS}): {e}"))?;
+        let sensors = match lookup(SENSORS) {
+            None => None,
+            Some(raw) => {
+                let ids: Vec<String> = raw
+                    .split(',')
+                    .map(|s| s.trim().to_owned())
+                    .filter(|s| !s.is_empty())
+                    .collect();
+                if ids.is_empty() {
+                    bail!("{NODE}: {SENSORS}={raw:?} names no sensor");
+                }
+                Some(ids)
+            }
+        };
+        Ok(Config {
+            params,
+            ntp_interval_nanos: millis(&lookup, NTP_INTERVAL_MILLIS, 100.0)?,
+            sensors,
+        })
+    }
+}

@@ -1,0 +1,278 @@
+//! `sync`: the server clock of the dataflow. Runs the four-timestamp NTP exchange with every
+//! source (a cycle in the graph: `ntp_request` out, `ntp_<id>` in), maps each `frame_<id>` onto
+//! the server clock with [`trigait_sync::SyncBuffer`], and sends the [`AlignedSet`]s its policy
+//! makes on `aligned_set`, plus every frame's placement on `frame_timing`. Configuration:
+//! [`config`].
+
+mod config;
+#[cfg(test)]
+mod tests;
+
+use dora_node_api::dora_core::config::DataId;
+use dora_node_api::{
+    DoraNode, Event, EventStream, MetadataParameters, Parameter, get_integer_param,
+};
+use eyre::{Context, bail};
+use trigait_schema::{FrameTiming, Message, NtpExchange, SkeletonFrameMessage, ports};
+use trigait_sync::{AlignedSet, Error as SyncError, SyncBuffer};
+
+use crate::config::Config;
+
+fn main() -> eyre::Result<()> {
+    let config = Config::from_env()?;
+    let (node, events) =
+        DoraNode::init_from_env().context("sync: connecting to the dora daemon")?;
+    let sensors = match &config.sensors {
+        Some(ids) => ids.clone(),
+        None => sensors_from_inputs(node.node_config().inputs.keys().map(|id| id.as_str()))?,
+    };
+    run(config, sensors, node, events).map(|_| ())
+}
+
+/// Sensor ids from the `frame_<id>` input ids, in natural order (`k2` before `k10`); every
+/// sensor must also have an `ntp_<id>` input.
+pub fn sensors_from_inputs<'a>(inputs: impl Iterator<Item = &'a str>) -> eyre::Result<Vec<String>> {
+    let inputs: Vec<&str> = inputs.collect();
+    let mut ids: Vec<String> = inputs
+        .iter()
+        .filter_map(|i| ports::sensor_of(i, ports::FRAME_INPUT_PREFIX))
+        .map(str::to_owned)
+        .collect();
+    if ids.is_empty() {
+        bail!("sync: no `frame_<sensor>` inputs in the graph, so no sensors to synchronise");
+    }
+    for id in &ids {
+        let ntp = format!("{}{id}", ports::NTP_INPUT_PREFIX);
+        if !inputs.contains(&ntp.as_str()) {
+            bail!(
+                "sync: input `frame_{id}` has no matching `{ntp}` input (the NTP replies of {id})"
+            );
+        }
+    }
+    ports::sort_sensor_ids(&mut ids);
+    Ok(ids)
+}
+
+/// Totals the node reports at the end.
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub struct Counters {
+    /// Sets sent.
+    pub sets_sent: u64,
+    /// NTP requests sent.
+    pub ntp_requests: u64,
+    /// NTP replies fed to the clock filters.
+    pub ntp_replies: u64,
+    /// Inputs that could not be decoded or did not fit (skipped).
+    pub malformed: u64,
+    /// Frames dropped by the buffer (not synchronised yet, late, from the future, …).
+    pub frames_dropped: u64,
+}
+
+struct Outputs {
+    aligned: DataId,
+    ntp: DataId,
+    timing: DataId,
+}
+
+fn now_nanos() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
+}
+
+/// The event loop.
+pub fn run(
+    config: Config,
+    sensors: Vec<String>,
+    mut node: DoraNode,
+    mut events: EventStream,
+) -> eyre::Result<Counters> {
+    let mut buffer = SyncBuffer::new(sensors.clone(), config.params.clone())
+        .context("sync: building the sync buffer")?;
+    let out = Outputs {
+        aligned: DataId::from(ports::ALIGNED_SET.to_owned()),
+        ntp: DataId::from(ports::NTP_REQUEST.to_owned()),
+        timing: DataId::from(ports::FRAME_TIMING.to_owned()),
+    };
+    eprintln!(
+        "INFO sync: {} sensors ({}), policy {}",
+        sensors.len(),
+        sensors.join(", "),
+        config.params.policy
+    );
+    let mut counters = Counters::default();
+    let mut timings: Vec<FrameTiming> = Vec::new();
+    let mut last_ntp: Option<i64> = None;
+    let mut request_id = 0_u64;
+    while let Some(event) = events.recv() {
+        match event {
+            Event::Input { id, metadata, data } => {
+                let id = id.as_str();
+                let now = now_nanos();
+                if id == "tick" {
+                    if last_ntp.is_none_or(|t| now - t >= config.ntp_interval_nanos) {
+                        last_ntp = Some(now);
+                        for sensor in &sensors {
+                            request_id += 1;
+                            let request =
+                                NtpExchange::request(sensor.clone(), request_id, now_nanos());
+                            let array = request.encode().context("encoding an NTP request")?;
+                            node.send_output(out.ntp.clone(), MetadataParameters::default(), array)
+                                .context("sync: sending ntp_request")?;
+                            counters.ntp_requests += 1;
+                        }
+                    }
+                    let sets: Vec<AlignedSet> = buffer.advance_to(now).collect();
+                    emit(&mut node, &out, sets, now, &mut counters)?;
+                    if !timings.is_empty() {
+                        let array =
+                            FrameTiming::encode_many(&timings).context("encoding frame timings")?;
+                        node.send_output(out.timing.clone(), MetadataParameters::default(), array)
+                            .context("sync: sending frame_timing")?;
+                        timings.clear();
+                    }
+                } else if let Some(sensor) = ports::sensor_of(id, ports::NTP_INPUT_PREFIX) {
+                    let exchange = match NtpExchange::decode(data.as_array().as_ref()) {
+                        Ok(e) if e.sensor_id == sensor => e.completed(now),
+                        Ok(e) => {
+                            counters.malformed += 1;
+                            eprintln!(
+                                "WARN sync: input {id:?} carried an NTP reply of sensor {:?}; skipped",
+                                e.sensor_id
+                            );
+                            continue;
+                        }
+                        Err(e) => {
+                            counters.malformed += 1;
+                            eprintln!("WARN sync: skipping a malformed NTP reply on {id:?}: {e}");
+                            continue;
+                        }
+                    };
+                    let Some(sample) = exchange.sample() else {
+                        counters.malformed += 1;
+                        eprintln!("WARN sync: NTP reply on {id:?} lacks t2/t3; skipped");
+                        continue;
+                    };
+                    match buffer.push_ntp(sensor, sample) {
+                        Ok(_) => counters.ntp_replies += 1,
+                        Err(e) => {
+                            counters.malformed += 1;
+                            eprintln!("WARN sync: NTP reply on {id:?} refused: {e}");
+                        }
+                    }
+                } else if let Some(sensor) = ports::sensor_of(id, ports::FRAME_INPUT_PREFIX) {
+                    let frame = match SkeletonFrameMessage::decode(data.as_array().as_ref()) {
+                        Ok(m) if m.frame.sensor_id == sensor => m.frame,
+                        Ok(m) => {
+                            counters.malformed += 1;
+                            eprintln!(
+                                "WARN sync: input {id:?} carried a frame of sensor {:?}; skipped",
+                                m.frame.sensor_id
+                            );
+                            continue;
+                        }
+                        Err(e) => {
+                            counters.malformed += 1;
+                            eprintln!("WARN sync: skipping a malformed frame on {id:?}: {e}");
+                            continue;
+                        }
+                    };
+                    let sets: Vec<AlignedSet> = buffer.advance_to(now).collect();
+                    emit(&mut node, &out, sets, now, &mut counters)?;
+                    timings.push(timing_of(
+                        &buffer,
+                        &frame,
+                        get_integer_param(&metadata.parameters, ports::TRUE_CAPTURE_NANOS),
+                    ));
+                    let sent =
+                        get_integer_param(&metadata.parameters, ports::SENT_NANOS).unwrap_or(now);
+                    match buffer.push(frame) {
+                        Ok(sets) => {
+                            let sets: Vec<AlignedSet> = sets.collect();
+                            emit(&mut node, &out, sets, sent, &mut counters)?;
+                        }
+                        Err(SyncError::NotSynchronised { .. }) => counters.frames_dropped += 1,
+                        Err(e) => {
+                            counters.frames_dropped += 1;
+                            eprintln!("WARN sync: frame dropped: {e}");
+                        }
+                    }
+                } else {
+                    eprintln!("WARN sync: ignoring unknown input {id:?}");
+                }
+            }
+            Event::InputClosed { id } => {
+                if let Some(sensor) = ports::sensor_of(id.as_str(), ports::FRAME_INPUT_PREFIX) {
+                    eprintln!(
+                        "WARN sync: source {sensor} stopped; its sets go out incomplete from now on"
+                    );
+                }
+            }
+            Event::Stop(_) => {}
+            Event::Error(e) => eprintln!("WARN sync: event stream error: {e}"),
+            _ => {}
+        }
+    }
+    let sets: Vec<AlignedSet> = buffer.flush().collect();
+    emit(&mut node, &out, sets, now_nanos(), &mut counters)?;
+    let c = buffer.counters();
+    eprintln!(
+        "INFO sync: frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; NTP in {} rejected {} steps {}; sets {} ({} incomplete, {} empty)",
+        c.frames_in,
+        c.frames_unsynchronised,
+        c.frames_late,
+        c.frames_evicted,
+        c.frames_from_future,
+        c.ntp_in,
+        c.ntp_rejected,
+        c.clock_steps,
+        c.sets_out,
+        c.sets_incomplete,
+        c.sets_empty
+    );
+    Ok(counters)
+}
+
+fn timing_of(
+    buffer: &SyncBuffer,
+    frame: &trigait_skeleton::SkeletonFrame,
+    true_nanos: Option<i64>,
+) -> FrameTiming {
+    let mapped = buffer.server_from_local(&frame.sensor_id, frame.local_stamp_nanos);
+    let estimate = buffer.clock(&frame.sensor_id).and_then(|c| c.estimate());
+    FrameTiming {
+        sensor_id: frame.sensor_id.clone(),
+        seq: frame.seq,
+        local_stamp_nanos: frame.local_stamp_nanos,
+        server_stamp_nanos: mapped.map(|m| m.server_nanos),
+        uncertainty_nanos: mapped.map(|m| m.uncertainty_nanos),
+        offset_nanos: estimate.map(|e| e.offset_nanos),
+        drift_ppm: estimate.map(|e| e.drift_ppm),
+        true_stamp_nanos: true_nanos,
+    }
+}
+
+fn emit(
+    node: &mut DoraNode,
+    out: &Outputs,
+    sets: Vec<AlignedSet>,
+    trigger_sent_nanos: i64,
+    counters: &mut Counters,
+) -> eyre::Result<()> {
+    for set in sets {
+        let mut params = MetadataParameters::default();
+        params.insert(
+            ports::TRIGGER_SENT_NANOS.to_owned(),
+            Parameter::Integer(trigger_sent_nanos),
+        );
+        params.insert(
+            ports::MISSING_SENSORS.to_owned(),
+            Parameter::Integer(i64::try_from(set.missing.len()).unwrap_or(i64::MAX)),
+        );
+        let array = set.encode().context("encoding an aligned set")?;
+        node.send_output(out.aligned.clone(), params, array)
+            .context("sync: sending aligned_set")?;
+        counters.sets_sent += 1;
+    }
+    Ok(())
+}

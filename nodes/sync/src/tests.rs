@@ -1,0 +1,130 @@
+//! `sync` contracts: the policy and its knobs come from YAML with errors naming node, key and
+//! value; the sensor set comes from the graph's inputs; bad input is counted, never fatal.
+
+use std::collections::HashMap;
+
+use dora_node_api::integration_testing::{
+    IntegrationTestInput, TestingInput, TestingOptions, TestingOutput, drain_outputs,
+    output_channel,
+};
+use dora_node_api::{DoraNode, serde_json};
+use trigait_sync::Policy;
+
+use crate::config::Config;
+
+fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
+    let map: HashMap<String, String> = pairs
+        .iter()
+        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+        .collect();
+    move |k| map.get(k).cloned()
+}
+
+fn chain(err: &eyre::Report) -> String {
+    err.chain()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
+/// Defaults: interpolate at 30 Hz, 100 ms deadline, NTP every 100 ms, sensors from inputs.
+#[test]
+fn config_defaults_and_policy() {
+    let c = Config::from_lookup(lookup(&[])).unwrap();
+    assert_eq!(c.params.policy, Policy::Interpolate);
+    assert_eq!(c.params.latency_deadline_nanos, 100_000_000);
+    assert_eq!(c.ntp_interval_nanos, 100_000_000);
+    assert!(c.sensors.is_none());
+    let c = Config::from_lookup(lookup(&[
+        ("POLICY", "slots"),
+        ("SLOT_MILLIS", "20"),
+        ("SENSORS", "a, b"),
+    ]))
+    .unwrap();
+    assert_eq!(c.params.policy, Policy::Slots);
+    assert_eq!(c.params.slot_nanos, 20_000_000);
+    assert_eq!(c.sensors.unwrap(), ["a", "b"]);
+}
+
+/// An unknown policy (or interpolation, or a bad number) stops the node with its key named.
+#[test]
+fn config_errors_name_node_key_and_value() {
+    for (key, raw) in [
+        ("POLICY", "round-robin"),
+        ("INTERPOLATION", "spline"),
+        ("FUSION_RATE_HZ", "fast"),
+        ("SLOT_MILLIS", "-3"),
+        ("NTP_INTERVAL_MILLIS", "x"),
+        ("SENSORS", " , "),
+    ] {
+        let text = chain(&Config::from_lookup(lookup(&[(key, raw)])).unwrap_err());
+        assert!(text.starts_with("sync: ") && text.contains(key), "{text}");
+        if key != "SLOT_MILLIS" {
+            assert!(text.contains(raw.trim()), "{text}");
+        }
+    }
+    let text = chain(&Config::from_lookup(lookup(&[("POLICY", "round-robin")])).unwrap_err());
+    assert!(
+        text.contains("slots") && text.contains("interpolate"),
+        "lists the valid names: {text}"
+    );
+}
+
+/// Sensors come from `frame_<id>` inputs in natural order; each needs its `ntp_<id>`.
+#[test]
+fn sensors_from_the_graph() {
+    let ids = crate::sensors_from_inputs(
+        [
+            "tick",
+            "frame_k10",
+            "ntp_k10",
+            "frame_k2",
+            "ntp_k2",
+            "frame_k1",
+            "ntp_k1",
+        ]
+        .into_iter(),
+    )
+    .unwrap();
+    assert_eq!(ids, ["k1", "k2", "k10"]);
+    let err = crate::sensors_from_inputs(["frame_k1", "ntp_k2"].into_iter()).unwrap_err();
+    assert!(chain(&err).contains("ntp_k1"), "{}", chain(&err));
+    assert!(crate::sensors_from_inputs(["tick"].into_iter()).is_err());
+}
+
+/// Timer ticks send one NTP request per sensor per interval; malformed frames and replies,
+/// and a frame arriving on another sensor's input, are counted and skipped.
+#[test]
+fn ticks_request_ntp_and_bad_input_is_skipped() {
+    let input: IntegrationTestInput = serde_json::from_value(serde_json::json!({
+        "id": "sync",
+        "events": [
+            {"time_offset_secs": 0.00, "type": "Input", "id": "tick", "data": 0},
+            {"time_offset_secs": 0.01, "type": "Input", "id": "frame_k1", "data": [1, 2]},
+            {"time_offset_secs": 0.02, "type": "Input", "id": "ntp_k2", "data": "garbage"},
+            {"time_offset_secs": 0.03, "type": "Input", "id": "tick", "data": 0},
+            {"time_offset_secs": 0.15, "type": "Input", "id": "tick", "data": 0},
+            {"time_offset_secs": 0.20, "type": "Stop"}
+        ]
+    }))
+    .unwrap();
+    let (tx, mut rx) = output_channel();
+    let (node, events) = DoraNode::init_testing(
+        TestingInput::Input(input),
+        TestingOutput::ToChannel(tx),
+        TestingOptions::default(),
+    )
+    .unwrap();
+    let config = Config::from_lookup(lookup(&[])).unwrap();
+    let counters = crate::run(config, vec!["k1".into(), "k2".into()], node, events).unwrap();
+    assert_eq!(counters.malformed, 2);
+    // Ticks at 0 and 150 ms are ≥ 100 ms apart; the one at 30 ms is not.
+    assert_eq!(counters.ntp_requests, 4);
+    assert_eq!(counters.sets_sent, 0, "no frames, no sets");
+    let outputs = drain_outputs(&mut rx);
+    let requests = outputs
+        .iter()
+        .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some("ntp_request"))
+        .count();
+    assert_eq!(requests, 4);
+}

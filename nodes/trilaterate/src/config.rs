@@ -1,0 +1,73 @@
+//! `trilaterate` configuration, read from the node's `env:` block.
+//!
+//! | env var | type | default | meaning |
+//! |---|---|---|---|
+//! | `METHOD` | `geometric`, `linear`, `nls`, `fusion` | `fusion` | the estimator |
+//! | `ROBUST` | bool | `false` | wrap it in outlier rejection |
+//! | `RIG` | `thesis`, `ring-N` or a YAML path | `thesis` | sensor poses (must match the sources') |
+
+use eyre::eyre;
+use trigait_rig::Rig;
+use trigait_trilateration::{Method, Params};
+
+/// Env var: method.
+pub const METHOD: &str = "METHOD";
+/// Env var: robust.
+pub const ROBUST: &str = "ROBUST";
+/// Env var: rig.
+pub const RIG: &str = "RIG";
+
+const NODE: &str = "trilaterate";
+
+/// The node's configuration.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Estimator settings.
+    pub params: Params,
+    /// The rig.
+    pub rig: Rig,
+}
+
+impl Config {
+    /// From the process environment.
+    pub fn from_env() -> eyre::Result<Self> {
+        Self::from_lookup(|k| std::env::var(k).ok())
+    }
+
+    /// From any lookup (tests).
+    pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
+        let method_name = lookup(METHOD).unwrap_or_else(|| "fusion".into());
+        let method: Method = method_name.parse().map_err(|e| {
+            eyre!(
+                "{NODE}: {METHOD}={method_name:?} is invalid: {e} (expected one of {})",
+                Method::ALL.map(Method::name).join(", ")
+            )
+        })?;
+        let robust = match lookup(ROBUST).as_deref().map(str::trim) {
+            None | Some("false" | "0" | "no") => false,
+            Some("true" | "1" | "yes") => true,
+            Some(other) => {
+                return Err(eyre!(
+                    "{NODE}: {ROBUST}={other:?} is invalid: expected true or false"
+                ));
+            }
+        };
+        let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
+        let rig =
+            Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
+        Ok(Config {
+            params: Params::new(method).with_robust(robust),
+            rig,
+        })
+    }
+
+    /// The estimator's name as reported (`fusion`, `fusion+robust`).
+    #[must_use]
+    pub fn estimator_name(&self) -> String {
+        if self.params.robust {
+            format!("{}+robust", self.params.method)
+        } else {
+            self.params.method.to_string()
+        }
+    }
+}

@@ -1,0 +1,134 @@
+//! One aligned set → one fused pose: per joint, one [`Observation`] per sensor that saw it
+//! (weighted by the Kinect noise model at the reported position, as `trigait eval` does), then
+//! the configured estimator.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use trigait_kinect::Sensor;
+use trigait_schema::{FusedJoint, FusedPose};
+use trigait_skeleton::Joint;
+use trigait_sync::AlignedSet;
+use trigait_trilateration::{Error as EstimateError, Observation, Params, estimate};
+
+/// The rig's sensors by id.
+#[derive(Debug, Clone)]
+pub struct Fuser {
+    sensors: BTreeMap<String, Sensor>,
+    params: Params,
+    estimator: String,
+    /// Every joint any set has carried so far: one missing from a set is reported as skipped.
+    seen: BTreeSet<Joint>,
+}
+
+impl Fuser {
+    /// A fuser for `rig` with `params`, reporting `estimator` as its name.
+    #[must_use]
+    pub fn new(rig: &trigait_rig::Rig, params: Params, estimator: String) -> Self {
+        let sensors = rig
+            .sensors
+            .iter()
+            .map(|s| (s.id.clone(), Sensor::new(s.id.clone(), s.world_from_kinect)))
+            .collect();
+        Self {
+            sensors,
+            params,
+            estimator,
+            seen: BTreeSet::new(),
+        }
+    }
+
+    /// Fuses every joint of `set`; a sensor the rig does not know is left out and named in
+    /// the returned list.
+    #[must_use]
+    pub fn fuse(&mut self, set: &AlignedSet) -> (FusedPose, Vec<String>) {
+        let unknown: Vec<String> = set
+            .sensors
+            .keys()
+            .filter(|id| !self.sensors.contains_key(*id))
+            .cloned()
+            .collect();
+        let joints: BTreeSet<Joint> = set
+            .sensors
+            .values()
+            .flat_map(|v| v.joints.iter().map(|s| s.joint))
+            .collect();
+        self.seen.extend(joints.iter().copied());
+        let mut pose = FusedPose {
+            set_seq: set.seq,
+            stamp_nanos: set.stamp_nanos,
+            joints: BTreeMap::new(),
+            skipped: BTreeMap::new(),
+        };
+        for joint in joints {
+            let mut ids = Vec::new();
+            let mut observations = Vec::new();
+            for (id, view) in &set.sensors {
+                let (Some(sensor), Some(sample)) = (
+                    self.sensors.get(id),
+                    view.joints.iter().find(|s| s.joint == joint),
+                ) else {
+                    continue;
+                };
+                let p = sample.position_in_kinect;
+                // The limb axis (for the depth noise's incidence term) from the same sensor's
+                // reported neighbouring joints.
+                let limb = trigait_kinect::limb_axis(joint, |j| {
+                    view.joints
+                        .iter()
+                        .find(|s| s.joint == j)
+                        .map(|s| s.position_in_kinect)
+                });
+                observations.push(Observation::new(
+                    sensor.world_from_kinect,
+                    p,
+                    sensor.covariance_in_kinect(joint, &p, sample.state, limb),
+                ));
+                ids.push(id.clone());
+            }
+            match estimate(&observations, &self.params) {
+                Ok(e) => {
+                    let used = if e.diagnostics.used.is_empty() {
+                        ids.clone()
+                    } else {
+                        e.diagnostics
+                            .used
+                            .iter()
+                            .filter_map(|i| ids.get(*i).cloned())
+                            .collect()
+                    };
+                    pose.joints.insert(
+                        joint,
+                        FusedJoint {
+                            position: e.position,
+                            covariance: e.covariance,
+                            sensors_used: used,
+                            residual_m: e.diagnostics.residual_rms_m,
+                            condition_number: e.diagnostics.condition_number,
+                            estimator: self.estimator.clone(),
+                        },
+                    );
+                }
+                Err(err) => {
+                    let reason = match &err {
+                        EstimateError::TooFewSensors { got, need, .. } => format!(
+                            "too few sensors: {got} saw it ({}), {} needs {need}",
+                            ids.join(", "),
+                            self.estimator
+                        ),
+                        other => other.to_string(),
+                    };
+                    pose.skipped.insert(joint, reason);
+                }
+            }
+        }
+        for joint in &self.seen {
+            if !pose.joints.contains_key(joint) && !pose.skipped.contains_key(joint) {
+                pose.skipped.insert(
+                    *joint,
+                    "too few sensors: no sensor saw it in this set".into(),
+                );
+            }
+        }
+        (pose, unknown)
+    }
+}

@@ -1,0 +1,193 @@
+//! `trilaterate` contracts: the estimator comes from YAML with errors naming node, key and
+//! value; a set is fused with the rig's noise model and a joint too few sensors saw is listed
+//! as skipped with the reason; malformed sets are counted, never fatal.
+
+use std::collections::{BTreeMap, HashMap};
+
+use dora_node_api::integration_testing::{
+    IntegrationTestInput, TestingInput, TestingOptions, TestingOutput, drain_outputs,
+    output_channel,
+};
+use dora_node_api::{DoraNode, serde_json};
+use nalgebra::Point3;
+use trigait_rig::Rig;
+use trigait_skeleton::{Joint, JointSample, TrackingState};
+use trigait_sync::{AlignedSet, Policy, SensorView};
+use trigait_trilateration::Method;
+
+use crate::config::Config;
+use crate::fuse::Fuser;
+
+fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
+    let map: HashMap<String, String> = pairs
+        .iter()
+        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+        .collect();
+    move |k| map.get(k).cloned()
+}
+
+fn chain(err: &eyre::Report) -> String {
+    err.chain()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
+/// Defaults to fusion on the thesis rig; `ROBUST` wraps it.
+#[test]
+fn config_defaults() {
+    let c = Config::from_lookup(lookup(&[])).unwrap();
+    assert_eq!(c.params.method, Method::Fusion);
+    assert_eq!(c.estimator_name(), "fusion");
+    assert_eq!(c.rig.name, "thesis");
+    let c = Config::from_lookup(lookup(&[("METHOD", "linear"), ("ROBUST", "true")])).unwrap();
+    assert_eq!(c.estimator_name(), "linear+robust");
+}
+
+/// Unknown estimator, bad ROBUST, malformed rig file: errors name node, key and value.
+#[test]
+fn config_errors_name_node_key_and_value() {
+    let text = chain(&Config::from_lookup(lookup(&[("METHOD", "kalman")])).unwrap_err());
+    assert!(text.starts_with("trilaterate: METHOD=\"kalman\""), "{text}");
+    assert!(text.contains("geometric, linear, nls, fusion"), "{text}");
+    let text = chain(&Config::from_lookup(lookup(&[("ROBUST", "maybe")])).unwrap_err());
+    assert!(text.contains("ROBUST") && text.contains("maybe"), "{text}");
+    let dir = std::env::temp_dir().join(format!("trigait-trilaterate-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let rig = dir.join("bad-rig.yml");
+    std::fs::write(&rig, "sensors:\n  - id: a\n    position: [0, 0]\n").unwrap();
+    let text = chain(&Config::from_lookup(lookup(&[("RIG", rig.to_str().unwrap())])).unwrap_err());
+    assert!(
+        text.starts_with("trilaterate: RIG=") && text.contains("bad-rig.yml"),
+        "{text}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn view(joints: Vec<JointSample>) -> SensorView {
+    let n = joints.len();
+    SensorView {
+        joints,
+        interpolation_error_m: vec![Some(0.0); n],
+        frame_seqs: vec![1],
+        skew_nanos: 0,
+        time_uncertainty_nanos: 0,
+    }
+}
+
+/// Three sensors seeing a knee exactly: fused at the truth with a small covariance and all
+/// three named; an ankle only one sensor saw is fused by `fusion` but skipped by `linear`
+/// with the reason; a joint seen before and by nobody now is skipped too.
+#[test]
+fn fuses_and_skips_with_reasons() {
+    let rig = Rig::from_spec("thesis").unwrap();
+    let knee = Point3::new(0.3, 0.1, 0.5);
+    let ankle = Point3::new(0.2, -0.1, 0.1);
+    let mut sensors = BTreeMap::new();
+    for (i, s) in rig.sensors.iter().enumerate() {
+        let mut joints = vec![JointSample {
+            joint: Joint::KneeLeft,
+            position_in_kinect: s.world_from_kinect.inverse_transform_point(&knee),
+            state: TrackingState::Tracked,
+        }];
+        if i == 0 {
+            joints.push(JointSample {
+                joint: Joint::AnkleLeft,
+                position_in_kinect: s.world_from_kinect.inverse_transform_point(&ankle),
+                state: TrackingState::Inferred,
+            });
+        }
+        sensors.insert(s.id.clone(), view(joints));
+    }
+    let set = AlignedSet {
+        seq: 4,
+        stamp_nanos: 123,
+        policy: Policy::Interpolate,
+        sensors,
+        missing: vec![],
+        time_uncertainty_nanos: 0,
+    };
+    let fusion = Config::from_lookup(lookup(&[])).unwrap();
+    let mut fuser = Fuser::new(&fusion.rig, fusion.params.clone(), fusion.estimator_name());
+    let (pose, unknown) = fuser.fuse(&set);
+    assert!(unknown.is_empty());
+    assert_eq!((pose.set_seq, pose.stamp_nanos), (4, 123));
+    let k = &pose.joints[&Joint::KneeLeft];
+    assert!((k.position - knee).norm() < 1e-6, "{}", k.position);
+    assert_eq!(k.sensors_used, ["k1", "k2", "k3"]);
+    assert!(k.covariance.trace() > 0.0 && k.covariance.trace() < 0.01);
+    assert!(
+        pose.joints.contains_key(&Joint::AnkleLeft),
+        "fusion needs one sensor"
+    );
+
+    let linear = Config::from_lookup(lookup(&[("METHOD", "linear")])).unwrap();
+    let mut fuser = Fuser::new(&linear.rig, linear.params.clone(), linear.estimator_name());
+    let (pose, _) = fuser.fuse(&set);
+    assert!((pose.joints[&Joint::KneeLeft].position - knee).norm() < 1e-6);
+    let reason = &pose.skipped[&Joint::AnkleLeft];
+    assert!(
+        reason.contains("too few sensors") && reason.contains("k1"),
+        "{reason}"
+    );
+
+    let mut later = set.clone();
+    for v in later.sensors.values_mut() {
+        v.joints.retain(|s| s.joint == Joint::KneeLeft);
+    }
+    let (pose, _) = fuser.fuse(&later);
+    assert!(pose.skipped[&Joint::AnkleLeft].contains("no sensor saw it"));
+}
+
+/// A set from a sensor the rig does not know is fused without it, and that sensor is named.
+#[test]
+fn unknown_sensor_is_left_out() {
+    let rig = Rig::from_spec("thesis").unwrap();
+    let mut sensors = BTreeMap::new();
+    sensors.insert(
+        "k7".to_owned(),
+        view(vec![JointSample {
+            joint: Joint::HipLeft,
+            position_in_kinect: Point3::new(0.0, 0.0, 2.0),
+            state: TrackingState::Tracked,
+        }]),
+    );
+    let set = AlignedSet {
+        seq: 0,
+        stamp_nanos: 0,
+        policy: Policy::Slots,
+        sensors,
+        missing: vec![],
+        time_uncertainty_nanos: 0,
+    };
+    let c = Config::from_lookup(lookup(&[])).unwrap();
+    let mut fuser = Fuser::new(&rig, c.params.clone(), c.estimator_name());
+    let (pose, unknown) = fuser.fuse(&set);
+    assert_eq!(unknown, ["k7"]);
+    assert!(pose.joints.is_empty());
+    assert!(pose.skipped.contains_key(&Joint::HipLeft));
+}
+
+/// A malformed aligned set is counted and skipped; nothing is sent for it.
+#[test]
+fn malformed_set_is_skipped() {
+    let input: IntegrationTestInput = serde_json::from_value(serde_json::json!({
+        "id": "trilaterate",
+        "events": [
+            {"time_offset_secs": 0.0, "type": "Input", "id": "aligned_set", "data": [1, 2, 3]},
+            {"time_offset_secs": 0.01, "type": "Stop"}
+        ]
+    }))
+    .unwrap();
+    let (tx, mut rx) = output_channel();
+    let (node, events) = DoraNode::init_testing(
+        TestingInput::Input(input),
+        TestingOutput::ToChannel(tx),
+        TestingOptions::default(),
+    )
+    .unwrap();
+    let counters = crate::run(Config::from_lookup(lookup(&[])).unwrap(), node, events).unwrap();
+    assert_eq!(counters.malformed, 1);
+    assert_eq!(counters.poses_sent, 0);
+    assert!(drain_outputs(&mut rx).is_empty());
+}
