@@ -1,0 +1,224 @@
+//! Helpers shared by the whole-graph tests (`tests/dataflow.rs` and the graph tests of the
+//! filter, depth and multi-machine stages): locating the dora CLI and the venv's Python, building
+//! the node binaries once, running a graph headless in its own folder under
+//! `target/dataflow-tests/`, and reading its `summary.json` and `.rrd` back.
+//!
+//! Every test binary that runs graphs takes [`LOCK`] around a run, so graphs in one binary run
+//! one at a time and their latencies are not measured against each other (cargo runs the test
+//! binaries themselves one after another).
+
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used, dead_code)]
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Mutex, OnceLock};
+
+use serde_json::Value;
+
+pub fn workspace() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The dora CLI: `.venv/bin/dora` when the test script made it, else `dora` on PATH.
+pub fn dora() -> PathBuf {
+    let venv = workspace().join(".venv/bin/dora");
+    if venv.exists() {
+        venv
+    } else {
+        PathBuf::from("dora")
+    }
+}
+
+pub fn python() -> PathBuf {
+    let venv = workspace().join(".venv/bin/python");
+    if venv.exists() {
+        venv
+    } else {
+        PathBuf::from("python3")
+    }
+}
+
+/// Removes what cargo sets for a test process (`CARGO_PKG_*`, `CARGO_MANIFEST_DIR`, `OUT_DIR`,
+/// …) so the cargo that builds the nodes — here or under `dora run`'s `build:` lines — sees the
+/// environment of a plain `cargo build`: build scripts that watch such variables would
+/// otherwise recompile a large part of the dependency tree.
+pub fn plain_env(cmd: &mut Command) -> &mut Command {
+    const KEEP: [&str; 8] = [
+        "CARGO_HOME",
+        "CARGO_TARGET_DIR",
+        "CARGO_BUILD_",
+        "CARGO_PROFILE_",
+        "CARGO_REGISTR",
+        "CARGO_NET_",
+        "CARGO_HTTP_",
+        "CARGO_TERM_",
+    ];
+    for (key, _) in std::env::vars_os() {
+        let key = key.to_string_lossy().into_owned();
+        let cargo_set = key.starts_with("CARGO_") && !KEEP.iter().any(|k| key.starts_with(k));
+        if cargo_set || key == "OUT_DIR" || key == "RUST_TEST_THREADS" {
+            cmd.env_remove(&key);
+        }
+    }
+    cmd
+}
+
+/// Builds the node binaries once (release, like the graphs' `build:` lines).
+pub fn build_nodes() {
+    static BUILT: OnceLock<()> = OnceLock::new();
+    BUILT.get_or_init(|| {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        plain_env(&mut cmd);
+        // The same command as the graphs' `build:` lines, so `dora run` finds it done. With
+        // `--all-targets` the dev-dependencies take part in feature unification exactly as in
+        // `cargo test --workspace --release`, so this reuses the test build instead of
+        // compiling dora and rerun a second time with other features.
+        cmd.current_dir(workspace())
+            .args(["build", "--release", "--workspace", "--all-targets"]);
+        let status = cmd.status().expect("running cargo build for the nodes");
+        assert!(status.success(), "building the node binaries failed");
+    });
+}
+
+/// One graph run.
+#[derive(Debug, Clone)]
+pub struct Run {
+    pub success: bool,
+    pub log: String,
+    pub out_dir: PathBuf,
+}
+
+impl Run {
+    pub fn summary(&self) -> Value {
+        let path = self.out_dir.join("summary.json");
+        let text = std::fs::read_to_string(&path)
+            .unwrap_or_else(|e| panic!("{}: {e}\n--- log ---\n{}", path.display(), self.log));
+        serde_json::from_str(&text).expect("summary.json is JSON")
+    }
+
+    /// Temporal rows per entity path in the `.rrd`, and the static entity paths.
+    pub fn rrd_rows(&self) -> (BTreeMap<String, u64>, BTreeMap<String, u64>) {
+        let rrd = self.out_dir.join("trigait.rrd");
+        let out = Command::new(python())
+            .arg(workspace().join("scripts/rrd_rows.py"))
+            .arg(&rrd)
+            .output()
+            .expect("running scripts/rrd_rows.py");
+        assert!(
+            out.status.success(),
+            "reading {} back failed: {}",
+            rrd.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: Value = serde_json::from_slice(&out.stdout).expect("rrd_rows.py prints JSON");
+        let map = |key: &str| -> BTreeMap<String, u64> {
+            v[key]
+                .as_object()
+                .map(|o| {
+                    o.iter()
+                        .map(|(k, n)| (k.clone(), n.as_u64().unwrap_or(0)))
+                        .collect()
+                })
+                .unwrap_or_default()
+        };
+        (map("temporal"), map("static"))
+    }
+}
+
+/// The graph text with node paths, output folder and data paths made absolute for `dir`.
+pub fn localise(graph: &str, dir: &Path) -> String {
+    let ws = workspace();
+    let ws = ws.display();
+    let mut text = graph
+        .replace(
+            "path: ../target/release/",
+            &format!("path: {ws}/target/release/"),
+        )
+        .replace(
+            "path: target/release/",
+            &format!("path: {ws}/target/release/"),
+        )
+        .replace("../../shared/data", &format!("{ws}/../shared/data"));
+    let lines: Vec<String> = text
+        .lines()
+        .map(|l| match l.find("OUTPUT_DIR:") {
+            Some(i) => format!("{}OUTPUT_DIR: {}", &l[..i], dir.join("out").display()),
+            None => l.to_owned(),
+        })
+        .collect();
+    text = lines.join("\n");
+    text.push('\n');
+    text
+}
+
+pub fn spawn_graph(name: &str, graph: &str, stop_after: &str) -> (Child, PathBuf) {
+    build_nodes();
+    let dir = workspace().join("target/dataflow-tests").join(name);
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).expect("creating the test folder");
+    let yml = dir.join("graph.yml");
+    std::fs::write(&yml, localise(graph, &dir)).expect("writing the graph");
+    let child = plain_env(&mut Command::new(dora()))
+        .current_dir(&dir)
+        .args(["run", "graph.yml", "--stop-after", stop_after])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting `dora run` (is the dora CLI installed? scripts/test.sh installs it)");
+    (child, dir)
+}
+
+pub fn finish(child: Child, dir: PathBuf) -> Run {
+    let out = child.wait_with_output().expect("waiting for dora run");
+    let log = format!(
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::write(dir.join("dora-run.log"), &log).ok();
+    Run {
+        success: out.status.success(),
+        log,
+        out_dir: dir.join("out"),
+    }
+}
+
+pub static LOCK: Mutex<()> = Mutex::new(());
+
+/// Runs a committed graph (cached: tests that need the same run share it).
+pub fn run_graph(file: &str) -> Run {
+    static CACHE: OnceLock<Mutex<HashMap<String, Run>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+    let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(run) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(file) {
+        return run.clone();
+    }
+    let graph = std::fs::read_to_string(workspace().join(file)).expect("reading the graph");
+    let name = file.replace(['/', '.'], "-");
+    let (child, dir) = spawn_graph(&name, &graph, "12s");
+    let run = finish(child, dir);
+    assert!(run.success, "dora run {file} failed:\n{}", run.log);
+    cache
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(file.to_owned(), run.clone());
+    run
+}
+
+pub fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
+
+
+pub fn pids() -> Vec<u32> {
+    std::fs::read_dir("/proc")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| e.file_name().to_string_lossy().parse().ok())
+        .collect()
+}
+
