@@ -8,6 +8,7 @@
 //! | `aligned_set` | `sync → trilaterate` | [`trigait_sync::AlignedSet`] |
 //! | `fused_pose` | `trilaterate → recorder` | [`FusedPose`] |
 //! | `frame_timing` | `sync → recorder` | [`FrameTiming`] |
+//! | `depth_frame` | `kinect-source → depth-metrics` (issue 6) | [`DepthFrameMessage`] |
 //!
 //! Port ids and metadata keys are in [`ports`].
 //!
@@ -31,6 +32,7 @@
 
 mod aligned;
 mod codec;
+mod depth;
 mod fused;
 mod ntp;
 pub mod ports;
@@ -39,6 +41,7 @@ mod timing;
 
 pub use arrow_array::{Array, ArrayRef};
 pub use arrow_schema::DataType;
+pub use depth::DepthFrameMessage;
 pub use fused::{FusedJoint, FusedPose};
 pub use ntp::NtpExchange;
 pub use skeleton::SkeletonFrameMessage;

@@ -10,6 +10,7 @@
 //! | [`ALIGNED_SET`] | `sync` out | `aligned_set` | frames of all sensors at one instant |
 //! | [`FRAME_TIMING`] | `sync` out | `frame_timing`, many rows | server-clock placement of frames |
 //! | [`FUSED_POSE`] | `trilaterate` out | `fused_pose` | world joints with covariance |
+//! | [`DEPTH`] | `kinect-source` out (optional) | `depth_frame` | one raw depth image, sensor clock |
 //!
 //! `sync` takes one `frame_<sensor>` and one `ntp_<sensor>` input per source, so the sensor set
 //! comes from the graph ([`FRAME_INPUT_PREFIX`], [`NTP_INPUT_PREFIX`]).
@@ -28,6 +29,10 @@ pub const ALIGNED_SET: &str = "aligned_set";
 pub const FRAME_TIMING: &str = "frame_timing";
 /// `trilaterate` output: fused poses.
 pub const FUSED_POSE: &str = "fused_pose";
+/// `kinect-source` output (optional, `DEPTH_RATE_HZ`): a `depth_frame`.
+pub const DEPTH: &str = "depth";
+/// `depth-metrics` input id prefix for a source's depth frames: `depth_k1`.
+pub const DEPTH_INPUT_PREFIX: &str = "depth_";
 /// `sync`/`recorder` input id prefix for a source's frames: `frame_k1`.
 pub const FRAME_INPUT_PREFIX: &str = "frame_";
 /// `sync` input id prefix for a source's NTP replies: `ntp_k1`.

@@ -1,0 +1,285 @@
+//! `depth_frame`: one raw depth image of one sensor (`kinect-source → depth-metrics`), the
+//! input of the thesis's five depth metrics (ch. 3, §5.1) on the live stream (issue 6, item 1).
+//!
+//! ```text
+//! Struct { sensor_id: Utf8, seq: UInt64, local_stamp_nanos: Int64 (sensor clock),
+//!          width: UInt32, height: UInt32, depth_mm: List<UInt16> (row-major, 0 = no data) }
+//! ```
+//! A Kinect v2 frame is 512×424 = 217 088 values (434 KB); one `UInt16` array per frame is
+//! one contiguous buffer, which dora moves through shared memory without copying it again.
+//! Width and height travel with the pixels so a consumer can check them instead of guessing:
+//! decoding refuses a frame whose pixel count is not `width × height` (or is empty), whatever
+//! the producer. Whether the size is the one a metric expects (512×424) is the consumer's
+//! check (`trigait_depth::DepthFrame::from_mm`).
+
+use std::sync::Arc;
+
+use arrow_array::types::{Int64Type, UInt32Type, UInt64Type};
+use arrow_array::{Array, ArrayRef, Int64Array, UInt16Array, UInt32Array, UInt64Array};
+use arrow_schema::{DataType, Fields};
+
+use crate::codec::{
+    Builder, Col, column, field, list_of, list_range, no_null_rows, string, struct_of, value,
+};
+use crate::{Error, Message, Result};
+
+/// One depth image of one sensor.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DepthFrameMessage {
+    /// The sensor (`k1`).
+    pub sensor_id: String,
+    /// Frame number on this sensor's depth stream, from 0.
+    pub seq: u64,
+    /// Capture stamp on the sensor clock, nanoseconds.
+    pub local_stamp_nanos: i64,
+    /// Columns (Kinect v2: 512).
+    pub width: u32,
+    /// Rows (Kinect v2: 424).
+    pub height: u32,
+    /// Row-major depth in millimetres along the optical axis, 0 = no data.
+    pub depth_mm: Vec<u16>,
+}
+
+impl DepthFrameMessage {
+    /// Checks that the pixel count is `width × height` and not zero.
+    ///
+    /// # Errors
+    /// [`Error::BadLength`] on `depth_frame.depth_mm`.
+    pub fn validate(&self) -> Result<()> {
+        let expected =
+            usize::try_from(u64::from(self.width) * u64::from(self.height)).unwrap_or(usize::MAX);
+        if expected == 0 || self.depth_mm.len() != expected {
+            return Err(Error::BadLength {
+                field: format!("{}.depth_mm", Self::NAME),
+                expected,
+                found: self.depth_mm.len(),
+            });
+        }
+        Ok(())
+    }
+}
+
+fn fields() -> Fields {
+    Fields::from(vec![
+        field("sensor_id", DataType::Utf8),
+        field("seq", DataType::UInt64),
+        field("local_stamp_nanos", DataType::Int64),
+        field("width", DataType::UInt32),
+        field("height", DataType::UInt32),
+        field("depth_mm", list_of(DataType::UInt16)),
+    ])
+}
+
+impl Message for DepthFrameMessage {
+    const NAME: &'static str = "depth_frame";
+
+    fn data_type() -> DataType {
+        struct_of(fields())
+    }
+
+    fn encode_many(messages: &[Self]) -> Result<ArrayRef> {
+        let b = Builder {
+            message: Self::NAME,
+        };
+        for m in messages {
+            m.validate().map_err(|e| Error::Encode {
+                message: Self::NAME,
+                detail: e.to_string(),
+            })?;
+        }
+        let lengths: Vec<usize> = messages.iter().map(|m| m.depth_mm.len()).collect();
+        let pixels: ArrayRef = Arc::new(match messages {
+            // The common case (a node sends one frame): one copy into the Arrow buffer.
+            [one] => UInt16Array::from(one.depth_mm.clone()),
+            _ => UInt16Array::from_iter_values(
+                messages.iter().flat_map(|m| m.depth_mm.iter().copied()),
+            ),
+        });
+        b.structs(
+            &fields(),
+            vec![
+                b.strings(messages.iter().map(|m| m.sensor_id.as_str())),
+                Arc::new(UInt64Array::from_iter_values(
+                    messages.iter().map(|m| m.seq),
+                )),
+                Arc::new(Int64Array::from_iter_values(
+                    messages.iter().map(|m| m.local_stamp_nanos),
+                )),
+                Arc::new(UInt32Array::from_iter_values(
+                    messages.iter().map(|m| m.width),
+                )),
+                Arc::new(UInt32Array::from_iter_values(
+                    messages.iter().map(|m| m.height),
+                )),
+                b.list(DataType::UInt16, &lengths, pixels)?,
+            ],
+        )
+    }
+
+    fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
+        let top = Col::new(array, Self::NAME).structs()?;
+        no_null_rows(top, Self::NAME)?;
+        let (c, sensor_path) = column(top, Self::NAME, "sensor_id")?;
+        let sensors = Col::new(c, &sensor_path).strings()?;
+        let (c, seq_path) = column(top, Self::NAME, "seq")?;
+        let seqs = Col::new(c, &seq_path).primitive::<UInt64Type>()?;
+        let (c, stamp_path) = column(top, Self::NAME, "local_stamp_nanos")?;
+        let stamps = Col::new(c, &stamp_path).primitive::<Int64Type>()?;
+        let (c, width_path) = column(top, Self::NAME, "width")?;
+        let widths = Col::new(c, &width_path).primitive::<UInt32Type>()?;
+        let (c, height_path) = column(top, Self::NAME, "height")?;
+        let heights = Col::new(c, &height_path).primitive::<UInt32Type>()?;
+        let (c, depth_path) = column(top, Self::NAME, "depth_mm")?;
+        let list = Col::new(c, &depth_path).list()?;
+        let values_path = format!("{depth_path}.item");
+        let values = Col::new(list.values().as_ref(), &values_path)
+            .primitive::<arrow_array::types::UInt16Type>()?;
+        (0..top.len())
+            .map(|row| {
+                let range = list_range(list, &depth_path, row)?;
+                let pixels = values.slice(range.start, range.len());
+                if pixels.null_count() > 0 {
+                    return Err(Error::NullValue {
+                        field: values_path.clone(),
+                        row,
+                    });
+                }
+                let m = DepthFrameMessage {
+                    sensor_id: string(sensors, &sensor_path, row)?,
+                    seq: value(seqs, &seq_path, row)?,
+                    local_stamp_nanos: value(stamps, &stamp_path, row)?,
+                    width: value(widths, &width_path, row)?,
+                    height: value(heights, &height_path, row)?,
+                    depth_mm: pixels.values().to_vec(),
+                };
+                m.validate()?;
+                Ok(m)
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(sensor: &str, w: u32, h: u32, seq: u64) -> DepthFrameMessage {
+        DepthFrameMessage {
+            sensor_id: sensor.into(),
+            seq,
+            local_stamp_nanos: -7 + seq as i64 * 33_333_333,
+            width: w,
+            height: h,
+            depth_mm: (0..w * h).map(|i| (i * 37 % 4500) as u16).collect(),
+        }
+    }
+
+    /// A full Kinect v2 frame, a batch of small frames and a slice of that batch survive the
+    /// round trip bit for bit.
+    #[test]
+    fn round_trip() {
+        let one = frame("k1", 512, 424, 3);
+        let array = one.encode().unwrap();
+        assert_eq!(array.data_type(), &DepthFrameMessage::data_type());
+        assert_eq!(DepthFrameMessage::decode(array.as_ref()).unwrap(), one);
+
+        let many = vec![
+            frame("k1", 4, 3, 0),
+            frame("k2", 2, 5, 1),
+            frame("k3", 1, 1, 2),
+        ];
+        let array = DepthFrameMessage::encode_many(&many).unwrap();
+        assert_eq!(
+            DepthFrameMessage::decode_many(array.as_ref()).unwrap(),
+            many
+        );
+        let sliced = array.slice(1, 2);
+        assert_eq!(
+            DepthFrameMessage::decode_many(sliced.as_ref()).unwrap(),
+            many[1..].to_vec()
+        );
+    }
+
+    /// A pixel count that is not width × height is refused on both sides, naming the field.
+    #[test]
+    fn size_mismatch_is_an_error() {
+        let mut bad = frame("k1", 4, 3, 0);
+        bad.depth_mm.pop();
+        assert!(matches!(bad.encode(), Err(Error::Encode { .. })));
+        let mut empty = frame("k1", 0, 3, 0);
+        empty.depth_mm.clear();
+        assert!(empty.validate().is_err());
+
+        // Forge the message past the encoder: a good frame with a lying `width` column.
+        let good = frame("k1", 4, 3, 0).encode().unwrap();
+        let top = good
+            .as_any()
+            .downcast_ref::<arrow_array::StructArray>()
+            .unwrap();
+        let mut columns = top.columns().to_vec();
+        columns[3] = Arc::new(UInt32Array::from(vec![5_u32]));
+        let forged =
+            arrow_array::StructArray::try_new(top.fields().clone(), columns, None).unwrap();
+        let err = DepthFrameMessage::decode(&forged).unwrap_err();
+        assert_eq!(
+            err,
+            Error::BadLength {
+                field: "depth_frame.depth_mm".into(),
+                expected: 15,
+                found: 12
+            }
+        );
+    }
+
+    /// Another message, a depth list of the wrong item type or a missing column is an error
+    /// with the field's path, not a panic.
+    #[test]
+    fn malformed_input_is_an_error() {
+        let ntp = crate::NtpExchange::request("k1", 1, 2).encode().unwrap();
+        let err = DepthFrameMessage::decode(ntp.as_ref()).unwrap_err();
+        assert!(err.to_string().starts_with("depth_frame."), "{err}");
+
+        let good = frame("k1", 2, 2, 0).encode().unwrap();
+        let top = good
+            .as_any()
+            .downcast_ref::<arrow_array::StructArray>()
+            .unwrap();
+        // depth_mm as List<UInt32>.
+        let b = Builder { message: "test" };
+        let wrong_items = b
+            .list(
+                DataType::UInt32,
+                &[4],
+                Arc::new(UInt32Array::from(vec![1_u32, 2, 3, 4])),
+            )
+            .unwrap();
+        let mut fields: Vec<_> = top.fields().iter().cloned().collect();
+        fields[5] = field("depth_mm", list_of(DataType::UInt32));
+        let mut columns = top.columns().to_vec();
+        columns[5] = wrong_items;
+        let forged =
+            arrow_array::StructArray::try_new(Fields::from(fields), columns, None).unwrap();
+        let err = DepthFrameMessage::decode(&forged).unwrap_err();
+        assert!(
+            matches!(&err, Error::WrongType { field, .. } if field == "depth_frame.depth_mm.item"),
+            "{err}"
+        );
+        // A struct without depth_mm.
+        let fields: Vec<_> = top.fields().iter().take(5).cloned().collect();
+        let columns = top.columns()[..5].to_vec();
+        let forged =
+            arrow_array::StructArray::try_new(Fields::from(fields), columns, None).unwrap();
+        assert_eq!(
+            DepthFrameMessage::decode(&forged).unwrap_err(),
+            Error::MissingColumn {
+                field: "depth_frame.depth_mm".into()
+            }
+        );
+        // Not a struct at all.
+        let raw = UInt16Array::from(vec![1_u16; 4]);
+        assert!(matches!(
+            DepthFrameMessage::decode(&raw),
+            Err(Error::WrongType { .. })
+        ));
+    }
+}
