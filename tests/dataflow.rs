@@ -95,6 +95,16 @@ fn check_simulated(run: &Run, sensors: usize, ntp_below_1ms: bool, no_drops: boo
         statics.contains_key("world/fused"),
         "annotation context: {statics:#?}"
     );
+    let blueprint = run.rrd_blueprint();
+    assert!(
+        blueprint.iter().any(|p| p == "viewport")
+            && blueprint
+                .iter()
+                .filter(|p| p.starts_with("view/") && !p.ends_with("ViewContents"))
+                .count()
+                >= 3,
+        "default blueprint: {blueprint:#?}"
+    );
     s
 }
 

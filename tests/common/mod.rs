@@ -101,6 +101,31 @@ impl Run {
 
     /// Temporal rows per entity path in the `.rrd`, and the static entity paths.
     pub fn rrd_rows(&self) -> (BTreeMap<String, u64>, BTreeMap<String, u64>) {
+        let v = self.rrd_json();
+        let map = |key: &str| -> BTreeMap<String, u64> {
+            v[key]
+                .as_object()
+                .map(|o| {
+                    o.iter()
+                        .map(|(k, n)| (k.clone(), n.as_u64().unwrap_or(0)))
+                        .collect()
+                })
+                .unwrap_or_default()
+        };
+        (map("temporal"), map("static"))
+    }
+
+    /// Entity paths of the `.rrd`'s blueprint store (the default viewer layout; empty if none).
+    pub fn rrd_blueprint(&self) -> Vec<String> {
+        let v = self.rrd_json();
+        v["blueprint"]
+            .as_object()
+            .map(|o| o.keys().cloned().collect())
+            .unwrap_or_default()
+    }
+
+    /// What `scripts/rrd_rows.py` prints for `out/trigait.rrd`.
+    fn rrd_json(&self) -> Value {
         let rrd = self.out_dir.join("trigait.rrd");
         let out = Command::new(python())
             .arg(workspace().join("scripts/rrd_rows.py"))
@@ -113,18 +138,7 @@ impl Run {
             rrd.display(),
             String::from_utf8_lossy(&out.stderr)
         );
-        let v: Value = serde_json::from_slice(&out.stdout).expect("rrd_rows.py prints JSON");
-        let map = |key: &str| -> BTreeMap<String, u64> {
-            v[key]
-                .as_object()
-                .map(|o| {
-                    o.iter()
-                        .map(|(k, n)| (k.clone(), n.as_u64().unwrap_or(0)))
-                        .collect()
-                })
-                .unwrap_or_default()
-        };
-        (map("temporal"), map("static"))
+        serde_json::from_slice(&out.stdout).expect("rrd_rows.py prints JSON")
     }
 }
 
@@ -212,7 +226,6 @@ pub fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }
 
-
 pub fn pids() -> Vec<u32> {
     std::fs::read_dir("/proc")
         .into_iter()
@@ -221,4 +234,3 @@ pub fn pids() -> Vec<u32> {
         .filter_map(|e| e.file_name().to_string_lossy().parse().ok())
         .collect()
 }
-

@@ -36,6 +36,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     std::fs::create_dir_all(&config.out_dir)
         .with_context(|| format!("recorder: creating OUTPUT_DIR={}", config.out_dir.display()))?;
     let rec = viz::open(&config)?;
+    viz::send_blueprint(&rec).context("recorder: sending the default blueprint")?;
     viz::log_static(&rec, &config.rig).context("recorder: logging the rig")?;
     let mut stats = Stats::default();
     let mut ring = Ring::new(config.ring_capacity);

@@ -9,6 +9,7 @@
 //! - `plots/<joint>/{x,y,z}`, `sync/offset_ms/<id>`, `sync/error_ms/<id>`.
 //!
 //! Timelines: `server_time` (ns since the epoch, server clock) and `set` (aligned-set seq).
+//! The layout the viewer opens with is [`send_blueprint`].
 
 use rerun::RecordingStream;
 use trigait_kinect::Intrinsics;
@@ -64,6 +65,43 @@ pub fn open(config: &Config) -> eyre::Result<RecordingStream> {
         (None, None) => builder.buffered().context("recorder: opening rerun")?,
     };
     Ok(rec)
+}
+
+/// The default viewer layout (sent once, before any data, as the application's default
+/// blueprint): the 3-D scene of sensors, raw and fused joints on the left; on the right the
+/// per-axis joint trajectories (thesis Fig. 6.12) above the clock offsets of the sync node, and
+/// the gait events when the recorder logs them. Time runs on `server_time`.
+pub fn send_blueprint(rec: &RecordingStream) -> eyre::Result<()> {
+    use rerun::blueprint::{
+        Blueprint, BlueprintActivation, ContainerLike, Horizontal, Spatial3DView, TimePanel,
+        TimeSeriesView, Vertical,
+    };
+    let scene: ContainerLike = Spatial3DView::new("walkway (world, Z up)")
+        .with_origin("world")
+        .into();
+    let plots: ContainerLike = Vertical::new([
+        TimeSeriesView::new("joint trajectories (m)")
+            .with_origin("plots")
+            .into(),
+        TimeSeriesView::new("gait events")
+            .with_origin("gait")
+            .into(),
+        TimeSeriesView::new("clock sync (ms)")
+            .with_origin("sync")
+            .into(),
+    ])
+    .with_row_shares([2.0, 1.0, 1.0])
+    .into();
+    Blueprint::new(Horizontal::new([scene, plots]).with_column_shares([3.0, 2.0]))
+        .with_time_panel(TimePanel::new().with_timeline(SERVER_TIME))
+        .send(
+            rec,
+            BlueprintActivation {
+                make_active: true,
+                make_default: true,
+            },
+        )?;
+    Ok(())
 }
 
 /// Static content: axes convention, sensors, the skeleton's annotation context.

@@ -1,0 +1,184 @@
+//! The multi-machine graph (`dataflows/multi-machine.yml`, dora `deploy: machine:`) started the
+//! way the thesis deployment is (§6.2): a `dora coordinator`, one `dora daemon` per machine and
+//! `dora start`, here with two daemons on loopback — `sensors` runs the three sources (the
+//! graph's `kinect1..3`), `server` runs sync, trilaterate and recorder — so every frame and every
+//! NTP exchange crosses from one daemon to the other over zenoh, as it would over a LAN.
+
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{LOCK, Run, build_nodes, dora, f, localise, plain_env, workspace};
+
+/// Kills the coordinator and daemons when the test ends, also when it fails.
+struct Cluster {
+    children: Vec<Child>,
+    port: u16,
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        for child in &mut self.children {
+            child.kill().ok();
+            child.wait().ok();
+        }
+    }
+}
+
+impl Cluster {
+    fn start(dir: &Path) -> Self {
+        // Ports of our own, so a dora already running on the defaults is not disturbed.
+        let base = 20_000 + u16::try_from(std::process::id() % 20_000).unwrap();
+        let port = base;
+        let zenoh = format!("tcp/127.0.0.1:{}", base + 3);
+        let spawn = |args: Vec<String>, log: &str| -> Child {
+            let log = std::fs::File::create(dir.join(log)).unwrap();
+            plain_env(&mut Command::new(dora()))
+                .current_dir(dir)
+                .args(args)
+                .stdout(log.try_clone().unwrap())
+                .stderr(log)
+                .spawn()
+                .expect("starting dora (scripts/test.sh installs the CLI)")
+        };
+        let mut cluster = Cluster {
+            children: Vec::new(),
+            port,
+        };
+        cluster.children.push(spawn(
+            vec![
+                "coordinator".into(),
+                "--port".into(),
+                port.to_string(),
+                "--store".into(),
+                "memory".into(),
+            ],
+            "coordinator.log",
+        ));
+        std::thread::sleep(Duration::from_secs(1));
+        for (i, machine) in ["server", "sensors"].into_iter().enumerate() {
+            cluster.children.push(spawn(
+                vec![
+                    "daemon".into(),
+                    "--machine-id".into(),
+                    machine.into(),
+                    "--coordinator-port".into(),
+                    port.to_string(),
+                    "--local-listen-port".into(),
+                    (base + 1 + u16::try_from(i).unwrap()).to_string(),
+                    "--zenoh-peer".into(),
+                    zenoh.clone(),
+                ],
+                &format!("daemon-{machine}.log"),
+            ));
+        }
+        std::thread::sleep(Duration::from_secs(2));
+        cluster
+    }
+
+    fn cli(&self, dir: &Path, args: &[&str]) -> (bool, String) {
+        let out = plain_env(&mut Command::new(dora()))
+            .current_dir(dir)
+            .args(args)
+            .args(["--coordinator-port", &self.port.to_string()])
+            .stdin(Stdio::null())
+            .output()
+            .expect("running the dora CLI");
+        (
+            out.status.success(),
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            ),
+        )
+    }
+}
+
+#[test]
+fn multi_machine_graph_runs_on_two_daemons() {
+    let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    build_nodes();
+    let dir = workspace().join("target/dataflow-tests/multi-machine");
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).unwrap();
+    let graph = std::fs::read_to_string(workspace().join("dataflows/multi-machine.yml")).unwrap();
+    assert!(graph.contains("machine: kinect1") && graph.contains("machine: server"));
+    // Three sensor PCs become one `sensors` daemon; the binaries are built already, so the
+    // daemons get no build lines to run.
+    let text: String = localise(&graph, &dir)
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("build:"))
+        .map(|l| {
+            if l.trim_start().starts_with("machine: kinect") {
+                l.split("machine:").next().unwrap_or_default().to_owned() + "machine: sensors"
+            } else {
+                l.to_owned()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(dir.join("graph.yml"), text + "\n").unwrap();
+
+    let cluster = Cluster::start(&dir);
+    let (ok, log) = cluster.cli(
+        &dir,
+        &["start", "graph.yml", "--name", "trigait-mm", "--detach"],
+    );
+    assert!(ok, "dora start failed:\n{log}");
+    std::thread::sleep(Duration::from_secs(12));
+    let (ok, stop_log) = cluster.cli(&dir, &["stop", "trigait-mm", "--grace-duration", "10s"]);
+    assert!(ok, "dora stop failed:\n{stop_log}");
+    let out_dir = dir.join("out");
+    let summary = out_dir.join("summary.json");
+    let start = Instant::now();
+    while !summary.exists() && start.elapsed() < Duration::from_secs(20) {
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    drop(cluster);
+    let run = Run {
+        success: true,
+        log: format!("{log}\n{stop_log}"),
+        out_dir,
+    };
+    let s = run.summary();
+    eprintln!(
+        "multi-machine on loopback: sets {}, RMSE {:.4} m, latency {:#}",
+        s["sets_fused"],
+        f(&s["rmse_all_m"]),
+        s["latency_ms"]
+    );
+    assert!(s["sets_fused"].as_u64().unwrap() >= 200, "{s:#}");
+    for k in ["k1", "k2", "k3"] {
+        assert!(s["frames_in"][k].as_u64().unwrap_or(0) >= 200, "{k}: {s:#}");
+        // Synchronised across daemons: the NTP exchange crossed zenoh and converged.
+        let ntp = &s["ntp"][k];
+        assert!(f(&ntp["abs_error_ms"]["p50"]) < 1.0, "{k}: {ntp:#}");
+    }
+    assert!(f(&s["rmse_all_m"]) < 0.05, "{s:#}");
+    let (temporal, _) = run.rrd_rows();
+    assert_eq!(
+        temporal.get("world/fused").copied(),
+        s["sets_fused"].as_u64()
+    );
+    // Each node ran on the daemon its machine names.
+    let placed = |machine: &str, node: &str| {
+        let log = std::fs::read_to_string(dir.join(format!("daemon-{machine}.log")))
+            .unwrap_or_default()
+            + &log;
+        log.contains(&format!("{node} on daemon `{machine}`"))
+    };
+    for (machine, node) in [
+        ("sensors", "k1"),
+        ("sensors", "k3"),
+        ("server", "sync"),
+        ("server", "recorder"),
+    ] {
+        assert!(placed(machine, node), "{node} not on {machine}:\n{log}");
+    }
+}
