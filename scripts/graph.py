@@ -27,7 +27,7 @@ def source(i: int, args: argparse.Namespace, root: str) -> str:
     build: cargo build --release --workspace --all-targets
     path: {root}target/release/trigait-kinect-source-node
     inputs:
-      ntp_request: sync/ntp_request
+      ntp_request: sync/ntp_request_{sid}
     outputs: {outputs}
     env:
 {lines}
@@ -50,6 +50,8 @@ def main() -> int:
     root = args.root
     ids = [f"k{i + 1}" for i in range(n)]
     sync_inputs = "".join(f"      frame_{s}: {s}/frame\n      ntp_{s}: {s}/ntp_reply\n" for s in ids)
+    # One NTP request output per source: a request reaches only its sensor (see the sync node).
+    sync_outputs = "".join(f"      - ntp_request_{s}\n" for s in ids)
     rec_inputs = "".join(f"      frame_{s}: {s}/frame\n" for s in ids)
     if args.backend == "sim":
         rec_inputs += "".join(
@@ -67,7 +69,10 @@ def main() -> int:
     path: {root}target/release/trigait-sync-node
     inputs:
       tick: dora/timer/millis/10
-{sync_inputs}    outputs: [aligned_set, ntp_request, frame_timing]
+{sync_inputs}    outputs:
+      - aligned_set
+      - frame_timing
+{sync_outputs}
     env:
       POLICY: {args.policy}
       FUSION_RATE_HZ: "30"

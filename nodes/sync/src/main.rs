@@ -12,6 +12,8 @@ use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{
     DoraNode, Event, EventStream, MetadataParameters, Parameter, get_integer_param,
 };
+use std::collections::HashMap;
+
 use eyre::{Context, bail};
 use trigait_schema::{FrameTiming, Message, NtpExchange, SkeletonFrameMessage, ports};
 use trigait_sync::{AlignedSet, Error as SyncError, SyncBuffer};
@@ -26,7 +28,51 @@ fn main() -> eyre::Result<()> {
         Some(ids) => ids.clone(),
         None => sensors_from_inputs(node.node_config().inputs.keys().map(|id| id.as_str()))?,
     };
-    run(config, sensors, node, events).map(|_| ())
+    let routes = ntp_routes(
+        node.node_config().outputs.iter().map(|id| id.as_str()),
+        &sensors,
+    )?;
+    run(config, sensors, routes, node, events).map(|_| ())
+}
+
+/// Where the NTP requests of each sensor go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum NtpRoutes {
+    /// One `ntp_request` output that every source reads (each ignores requests addressed to
+    /// another sensor): simple to wire, but n² deliveries per NTP round.
+    Broadcast,
+    /// One `ntp_request_<id>` output per sensor, read only by that source.
+    PerSensor(HashMap<String, DataId>),
+}
+
+/// The NTP routing the graph declares: `ntp_request_<id>` outputs for every sensor, or (none
+/// declared) the broadcast `ntp_request`. A partial set is a wiring mistake and an error.
+pub fn ntp_routes<'a>(
+    outputs: impl Iterator<Item = &'a str>,
+    sensors: &[String],
+) -> eyre::Result<NtpRoutes> {
+    let mut routes = HashMap::new();
+    for output in outputs {
+        if let Some(sensor) = ports::sensor_of(output, ports::NTP_REQUEST_OUTPUT_PREFIX) {
+            if !sensors.iter().any(|s| s == sensor) {
+                bail!(
+                    "sync: output `{output}` names sensor {sensor:?}, which has no `frame_{sensor}` input"
+                );
+            }
+            routes.insert(sensor.to_owned(), DataId::from(output.to_owned()));
+        }
+    }
+    if routes.is_empty() {
+        return Ok(NtpRoutes::Broadcast);
+    }
+    if let Some(missing) = sensors.iter().find(|s| !routes.contains_key(*s)) {
+        bail!(
+            "sync: sensor {missing} has no `{}{missing}` output, while other sensors have one (declare one per sensor, or only `{}`)",
+            ports::NTP_REQUEST_OUTPUT_PREFIX,
+            ports::NTP_REQUEST
+        );
+    }
+    Ok(NtpRoutes::PerSensor(routes))
 }
 
 /// Sensor ids from the `frame_<id>` input ids, in natural order (`k2` before `k10`); every
@@ -84,6 +130,7 @@ fn now_nanos() -> i64 {
 pub fn run(
     config: Config,
     sensors: Vec<String>,
+    routes: NtpRoutes,
     mut node: DoraNode,
     mut events: EventStream,
 ) -> eyre::Result<Counters> {
@@ -117,8 +164,14 @@ pub fn run(
                             let request =
                                 NtpExchange::request(sensor.clone(), request_id, now_nanos());
                             let array = request.encode().context("encoding an NTP request")?;
-                            node.send_output(out.ntp.clone(), MetadataParameters::default(), array)
-                                .context("sync: sending ntp_request")?;
+                            let port = match &routes {
+                                NtpRoutes::PerSensor(ports) => {
+                                    ports.get(sensor).unwrap_or(&out.ntp)
+                                }
+                                NtpRoutes::Broadcast => &out.ntp,
+                            };
+                            node.send_output(port.clone(), MetadataParameters::default(), array)
+                                .with_context(|| format!("sync: sending {port}"))?;
                             counters.ntp_requests += 1;
                         }
                     }

@@ -116,7 +116,14 @@ fn ticks_request_ntp_and_bad_input_is_skipped() {
     )
     .unwrap();
     let config = Config::from_lookup(lookup(&[])).unwrap();
-    let counters = crate::run(config, vec!["k1".into(), "k2".into()], node, events).unwrap();
+    let counters = crate::run(
+        config,
+        vec!["k1".into(), "k2".into()],
+        crate::NtpRoutes::Broadcast,
+        node,
+        events,
+    )
+    .unwrap();
     assert_eq!(counters.malformed, 2);
     // Ticks at 0 and 150 ms are ≥ 100 ms apart; the one at 30 ms is not.
     assert_eq!(counters.ntp_requests, 4);
@@ -127,4 +134,34 @@ fn ticks_request_ntp_and_bad_input_is_skipped() {
         .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some("ntp_request"))
         .count();
     assert_eq!(requests, 4);
+}
+
+/// NTP routing comes from the declared outputs: none per sensor → broadcast; one per sensor →
+/// unicast; a partial or unknown set → an error naming the output or sensor.
+#[test]
+fn ntp_routes_from_outputs() {
+    let sensors: Vec<String> = vec!["k1".into(), "k2".into()];
+    let r = crate::ntp_routes(["aligned_set", "ntp_request"].into_iter(), &sensors).unwrap();
+    assert_eq!(r, crate::NtpRoutes::Broadcast);
+    let r = crate::ntp_routes(
+        ["ntp_request_k2", "aligned_set", "ntp_request_k1"].into_iter(),
+        &sensors,
+    )
+    .unwrap();
+    let crate::NtpRoutes::PerSensor(map) = r else {
+        panic!("expected per-sensor routes")
+    };
+    assert_eq!(map["k1"].as_str(), "ntp_request_k1");
+    assert_eq!(map["k2"].as_str(), "ntp_request_k2");
+    let e = crate::ntp_routes(["ntp_request_k1"].into_iter(), &sensors).unwrap_err();
+    assert!(
+        e.to_string().contains("sensor k2 has no `ntp_request_k2`"),
+        "{e}"
+    );
+    let e = crate::ntp_routes(
+        ["ntp_request_k1", "ntp_request_k2", "ntp_request_k9"].into_iter(),
+        &sensors,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("ntp_request_k9"), "{e}");
 }

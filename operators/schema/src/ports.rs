@@ -23,6 +23,10 @@ pub const GROUND_TRUTH: &str = "ground_truth";
 pub const NTP_REPLY: &str = "ntp_reply";
 /// `kinect-source` input and `sync` output: NTP requests.
 pub const NTP_REQUEST: &str = "ntp_request";
+/// `sync` output id prefix for one source's NTP requests: `ntp_request_k1`. With one output per
+/// source a request reaches only its sensor; a single broadcast [`NTP_REQUEST`] reaches every
+/// source, n² deliveries per NTP round, which at 16 sensors queues frames behind requests.
+pub const NTP_REQUEST_OUTPUT_PREFIX: &str = "ntp_request_";
 /// `sync` output: aligned sets.
 pub const ALIGNED_SET: &str = "aligned_set";
 /// `sync` output: frame timings.
