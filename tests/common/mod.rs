@@ -212,7 +212,6 @@ pub fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }
 
-
 pub fn pids() -> Vec<u32> {
     std::fs::read_dir("/proc")
         .into_iter()
@@ -222,3 +221,30 @@ pub fn pids() -> Vec<u32> {
         .collect()
 }
 
+/// Temporal and static rows per entity path of any `.rrd` (for graphs that write their own
+/// recording, e.g. `depth.rrd`, and for CLI recordings).
+pub fn rrd_rows_of(rrd: &Path) -> (BTreeMap<String, u64>, BTreeMap<String, u64>) {
+    let out = Command::new(python())
+        .arg(workspace().join("scripts/rrd_rows.py"))
+        .arg(rrd)
+        .output()
+        .expect("running scripts/rrd_rows.py");
+    assert!(
+        out.status.success(),
+        "reading {} back failed: {}",
+        rrd.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).expect("rrd_rows.py prints JSON");
+    let map = |key: &str| -> BTreeMap<String, u64> {
+        v[key]
+            .as_object()
+            .map(|o| {
+                o.iter()
+                    .map(|(k, n)| (k.clone(), n.as_u64().unwrap_or(0)))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    (map("temporal"), map("static"))
+}
