@@ -84,9 +84,11 @@ impl Config {
             None | Some("" | "off" | "false") => None,
             Some(spec) => Some(Sink::from_spec(spec, &output_dir.join(RRD_FILE))),
         };
-        let mut params = MetricsParams::default();
-        params.entropy_window = integer(&lookup, ENTROPY_WINDOW, 30, 2)?;
-        params.frame_metric_stride = integer(&lookup, FRAME_STRIDE, 30, 1)?;
+        let mut params = MetricsParams {
+            entropy_window: integer(&lookup, ENTROPY_WINDOW, 30, 2)?,
+            frame_metric_stride: integer(&lookup, FRAME_STRIDE, 30, 1)?,
+            ..MetricsParams::default()
+        };
         if let Some(raw) = lookup(TARGET_DISTANCE_M) {
             let d: f64 = raw
                 .trim()
