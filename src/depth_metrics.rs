@@ -4,7 +4,9 @@
 //! Inputs are 16-bit PNGs in millimetres (512×424, 0 = no data), given as files and/or
 //! directories (their `.png` files in name order). Without `--calibration` they form one
 //! sequence from one sensor; with it, file i is one frame of `sensors[i]`. All numbers come from
-//! `trigait-depth`, the crate a dataflow node uses on live frames.
+//! `trigait-depth`, the crate a dataflow node uses on live frames; `--rrd` logs the maps through
+//! `trigait-depth-rerun`, the same code as the `depth-metrics` node (entities
+//! `depth/sequence/...`, or `depth/sensor_NN/...` with `--calibration`).
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -36,6 +38,10 @@ pub struct Args {
     /// Write colour-mapped PNG maps (with legends) into this directory.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Also log the maps (accuracy zones, entropy, edge band, structural residual, depth) and
+    /// the report's scalars to this rerun recording (`.rrd`); open it with `rerun FILE`.
+    #[arg(long, value_name = "FILE")]
+    rrd: Option<PathBuf>,
     /// Print the JSON report on stdout instead of the table.
     #[arg(long)]
     json: bool,
@@ -178,6 +184,35 @@ fn write_maps(
     Ok(written)
 }
 
+/// Opens `--rrd` when given (the logging itself is `trigait-depth-rerun`, shared with the
+/// `depth-metrics` node).
+fn open_rrd(args: &Args) -> eyre::Result<Option<trigait_depth_rerun::RecordingStream>> {
+    args.rrd
+        .as_ref()
+        .map(|path| {
+            trigait_depth_rerun::open(
+                "trigait-depth",
+                &trigait_depth_rerun::Sink::File(path.clone()),
+            )
+            .map_err(|e| eyre::eyre!("--rrd: {e}"))
+        })
+        .transpose()
+}
+
+fn log_rrd(
+    rec: Option<&trigait_depth_rerun::RecordingStream>,
+    sensor: &str,
+    report: &SequenceReport,
+    maps: &SequenceMaps,
+    params: &MetricsParams,
+) -> eyre::Result<()> {
+    if let Some(rec) = rec {
+        trigait_depth_rerun::log_report(rec, sensor, report, maps, params, &mut Vec::new())
+            .wrap_err("--rrd: logging to rerun")?;
+    }
+    Ok(())
+}
+
 fn sequence(
     args: &Args,
     files: &[PathBuf],
@@ -196,6 +231,10 @@ fn sequence(
         .report_and_maps()
         .wrap_err("computing the metrics")?;
     let written = write_maps(&maps, &params, args.out.as_deref())?;
+    let rec = open_rrd(args)?;
+    log_rrd(rec.as_ref(), "sequence", &report, &maps, &params)?;
+    // Dropping the stream flushes the file footer.
+    drop(rec);
     if args.json {
         let json = SequenceJson {
             tool: "trigait depth-metrics",
@@ -328,6 +367,7 @@ fn multi_sensor(
             calibration.display()
         );
     }
+    let rec = open_rrd(args)?;
     let bar = progress(files.len(), "analysing sensors")?;
     let mut frames = Vec::with_capacity(files.len());
     let mut reports = Vec::with_capacity(files.len());
@@ -344,6 +384,13 @@ fn multi_sensor(
         let (report, maps) = analyzer
             .report_and_maps()
             .wrap_err_with(|| format!("metrics of sensor {i}"))?;
+        log_rrd(
+            rec.as_ref(),
+            &format!("sensor_{i:02}"),
+            &report,
+            &maps,
+            &sensor_params,
+        )?;
         let dir = args.out.as_ref().map(|o| o.join(format!("sensor_{i:02}")));
         written.push(write_maps(&maps, &sensor_params, dir.as_deref())?);
         reports.push(report);
@@ -351,6 +398,7 @@ fn multi_sensor(
         bar.inc(1);
     }
     bar.finish_and_clear();
+    drop(rec);
     let check: FloorCheck = floor_check(&frames, &sensors, &FloorParams::default())
         .wrap_err("multi-sensor floor check")?;
     if args.json {

@@ -101,44 +101,14 @@ impl Run {
 
     /// Temporal rows per entity path in the `.rrd`, and the static entity paths.
     pub fn rrd_rows(&self) -> (BTreeMap<String, u64>, BTreeMap<String, u64>) {
-        let v = self.rrd_json();
-        let map = |key: &str| -> BTreeMap<String, u64> {
-            v[key]
-                .as_object()
-                .map(|o| {
-                    o.iter()
-                        .map(|(k, n)| (k.clone(), n.as_u64().unwrap_or(0)))
-                        .collect()
-                })
-                .unwrap_or_default()
-        };
-        (map("temporal"), map("static"))
+        rrd_rows_of(&self.out_dir.join("trigait.rrd"))
     }
 
     /// Entity paths of the `.rrd`'s blueprint store (the default viewer layout; empty if none).
     pub fn rrd_blueprint(&self) -> Vec<String> {
-        let v = self.rrd_json();
-        v["blueprint"]
-            .as_object()
-            .map(|o| o.keys().cloned().collect())
-            .unwrap_or_default()
-    }
-
-    /// What `scripts/rrd_rows.py` prints for `out/trigait.rrd`.
-    fn rrd_json(&self) -> Value {
-        let rrd = self.out_dir.join("trigait.rrd");
-        let out = Command::new(python())
-            .arg(workspace().join("scripts/rrd_rows.py"))
-            .arg(&rrd)
-            .output()
-            .expect("running scripts/rrd_rows.py");
-        assert!(
-            out.status.success(),
-            "reading {} back failed: {}",
-            rrd.display(),
-            String::from_utf8_lossy(&out.stderr)
-        );
-        serde_json::from_slice(&out.stdout).expect("rrd_rows.py prints JSON")
+        row_map(&rrd_json_of(&self.out_dir.join("trigait.rrd")), "blueprint")
+            .into_keys()
+            .collect()
     }
 }
 
@@ -233,4 +203,39 @@ pub fn pids() -> Vec<u32> {
         .flatten()
         .filter_map(|e| e.file_name().to_string_lossy().parse().ok())
         .collect()
+}
+
+/// What `scripts/rrd_rows.py` prints for any `.rrd`: temporal, static and blueprint rows per
+/// entity path.
+pub fn rrd_json_of(rrd: &Path) -> Value {
+    let out = Command::new(python())
+        .arg(workspace().join("scripts/rrd_rows.py"))
+        .arg(rrd)
+        .output()
+        .expect("running scripts/rrd_rows.py");
+    assert!(
+        out.status.success(),
+        "reading {} back failed: {}",
+        rrd.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("rrd_rows.py prints JSON")
+}
+
+fn row_map(v: &Value, key: &str) -> BTreeMap<String, u64> {
+    v[key]
+        .as_object()
+        .map(|o| {
+            o.iter()
+                .map(|(k, n)| (k.clone(), n.as_u64().unwrap_or(0)))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Temporal and static rows per entity path of any `.rrd` (for graphs that write their own
+/// recording, e.g. `depth.rrd`, and for CLI recordings).
+pub fn rrd_rows_of(rrd: &Path) -> (BTreeMap<String, u64>, BTreeMap<String, u64>) {
+    let v = rrd_json_of(rrd);
+    (row_map(&v, "temporal"), row_map(&v, "static"))
 }

@@ -18,6 +18,7 @@
 //! | `REPLAY_SPEED` | `realtime` or `fast` | `realtime` | play at 30 Hz or as fast as possible |
 //! | `REPLAY_LOOP` | bool | `true` | start over at the end of the file |
 //! | `STOP_AFTER_FRAMES` | integer | none | stop after this many frames (tests: a source dying mid-run) |
+//! | `DEPTH_RATE_HZ`, `DEPTH_*` | | off | the optional `depth` output: [`crate::depth`] |
 
 use std::path::PathBuf;
 
@@ -104,6 +105,8 @@ pub struct Config {
     pub clock_jitter_nanos: f64,
     /// Stop after this many frames.
     pub stop_after_frames: Option<u64>,
+    /// The optional depth output (`None`: off).
+    pub depth: Option<crate::depth::DepthConfig>,
 }
 
 const NODE: &str = "kinect-source";
@@ -224,6 +227,7 @@ impl Config {
             clock_drift_ppm: drift,
             clock_jitter_nanos: jitter * 1e3,
             stop_after_frames,
+            depth: crate::depth::DepthConfig::from_lookup(&lookup)?,
         })
     }
 

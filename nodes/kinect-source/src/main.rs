@@ -5,6 +5,7 @@
 
 mod backend;
 mod config;
+mod depth;
 #[cfg(test)]
 mod tests;
 
@@ -47,6 +48,12 @@ pub fn run(
     let frame_out = DataId::from(ports::FRAME.to_owned());
     let truth_out = DataId::from(ports::GROUND_TRUTH.to_owned());
     let ntp_out = DataId::from(ports::NTP_REPLY.to_owned());
+    let depth_out = DataId::from(ports::DEPTH.to_owned());
+    let mut depth = config
+        .depth
+        .as_ref()
+        .map(|d| depth::DepthStream::new(d, &config, now_nanos()))
+        .transpose()?;
     let mut clock = SensorClock::new(
         &config,
         now_nanos(),
@@ -70,6 +77,7 @@ pub fn run(
                 return Ok(counters);
             }
         }
+        depth::send_due(depth.as_mut(), &mut node, &depth_out, &mut clock)?;
         let Some(due) = source.next_due() else {
             eprintln!(
                 "INFO kinect-source {}: replay finished after {} frames",
@@ -77,6 +85,7 @@ pub fn run(
             );
             return Ok(counters);
         };
+        let due = depth::earliest(due, depth.as_ref());
         let wait_nanos = u64::try_from(due - now_nanos()).unwrap_or(0);
         let Some(event) = events.recv_timeout(Duration::from_nanos(wait_nanos)) else {
             break;

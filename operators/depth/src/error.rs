@@ -140,6 +140,14 @@ pub enum Error {
         /// What is allowed.
         expected: &'static str,
     },
+    /// A scene spec that is not one of the known forms.
+    #[error("scene {spec:?}: expected {expected}")]
+    BadSpec {
+        /// The spec given.
+        spec: String,
+        /// The forms allowed.
+        expected: &'static str,
+    },
 }
 
 /// Result with this crate's [`Error`].

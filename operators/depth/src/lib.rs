@@ -17,7 +17,8 @@
 //! Frames are [`DepthFrame`]s: 512×424 millimetres, 0 = no data. Metrics are plain functions
 //! and streaming accumulators ([`SequenceAnalyzer`]) with no I/O, so a dataflow node can push
 //! frames as they arrive; [`io`] reads PNG files and directories for the CLI, [`render`] turns
-//! maps into colour PNGs with a legend, [`sim`] renders synthetic frames with known noise, and
+//! maps into colour PNGs with a legend, [`sim`] renders synthetic frames with known noise (placed
+//! in a lab by a sensor's pose with [`lab`]), and
 //! [`panoptic`] back-projects calibrated CMU Panoptic Kinect frames to world points and fits the
 //! floor per sensor. Inside, lengths are metres; values the thesis states in millimetres carry
 //! `_mm`.
@@ -28,6 +29,7 @@ pub mod entropy;
 mod error;
 pub mod frame;
 pub mod io;
+pub mod lab;
 pub mod panoptic;
 pub mod plane;
 pub mod render;

@@ -85,6 +85,31 @@ pub struct Scene {
     pub tilt_y_deg: f64,
     /// Objects in front of the background.
     pub shapes: Vec<Shape>,
+    /// Further unbounded planes in any orientation (a floor seen from a tripod, a side wall);
+    /// every ray sees the nearest surface. Unlike [`Shape`]s they carry no edge band: where two
+    /// planes meet there is no depth jump.
+    pub planes: Vec<ScenePlane>,
+}
+
+/// An unbounded plane `normal · p = offset_m` in the OpenCV camera frame (x right, y down,
+/// z out of the lens), `normal` a unit vector and `offset_m` > 0 its distance from the optical
+/// centre.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScenePlane {
+    /// Unit normal, pointing away from the camera.
+    pub normal: [f64; 3],
+    /// Distance of the plane from the optical centre, metres.
+    pub offset_m: f64,
+}
+
+impl ScenePlane {
+    /// Depth (z) at which the ray (x, y, 1) meets the plane, if in front of the camera.
+    #[must_use]
+    pub fn depth_along(&self, x: f64, y: f64) -> Option<f64> {
+        let [a, b, c] = self.normal;
+        let den = a * x + b * y + c;
+        (den > 1e-9).then(|| self.offset_m / den)
+    }
 }
 
 impl Scene {
@@ -96,6 +121,7 @@ impl Scene {
             tilt_x_deg: 0.0,
             tilt_y_deg: 0.0,
             shapes: Vec::new(),
+            planes: Vec::new(),
         }
     }
 }
@@ -169,6 +195,16 @@ impl Simulator {
                 expected: "a step of at least 1 mm",
             });
         }
+        if let Some(p) = scene.planes.iter().find(|p| {
+            let norm = p.normal.iter().map(|v| v * v).sum::<f64>().sqrt();
+            !(p.offset_m > 0.0 && p.offset_m.is_finite() && (norm - 1.0).abs() < 1e-6)
+        }) {
+            return Err(Error::BadParameter {
+                name: "planes.offset_m",
+                value: p.offset_m,
+                expected: "a unit normal and a positive, finite distance from the camera",
+            });
+        }
         if params.ring_period_px.is_nan() || params.ring_period_px <= 0.0 {
             return Err(Error::BadParameter {
                 name: "ring_period_px",
@@ -192,6 +228,13 @@ impl Simulator {
                 let den = n.0 * x + n.1 * y + n.2;
                 (den > 1e-9).then(|| n.2 * d / den)
             });
+            for p in &scene.planes {
+                if let Some(zp) = p.depth_along(x, y)
+                    && z.is_none_or(|zz| zp < zz)
+                {
+                    z = Some(zp);
+                }
+            }
             for s in &scene.shapes {
                 let inside = s.inside_px(x, y, k.fx);
                 if inside >= 0.0 && z.is_none_or(|zz| s.distance_m() < zz) {

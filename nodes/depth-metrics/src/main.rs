@@ -1,0 +1,108 @@
+//! `depth-metrics`: the thesis's five Kinect v2 depth metrics (ch. 3, results §5.1) on the live
+//! depth stream of every sensor (issue 6, items 1 and 8). Each `depth_<sensor>` input feeds that
+//! sensor's [`trigait_depth::SequenceAnalyzer`] — the code `trigait depth-metrics` runs on PNG
+//! files — and every `REPORT_EVERY_FRAMES` frames the sensor's report is recomputed, written to
+//! `OUTPUT_DIR/depth-metrics.json` and, with `RERUN`, its maps and scalars logged to rerun
+//! through [`trigait_depth_rerun`]. A malformed message or a frame of the wrong size is counted
+//! and skipped. Configuration: [`config`].
+
+mod config;
+mod state;
+#[cfg(test)]
+mod tests;
+
+use dora_node_api::{DoraNode, Event, EventStream};
+use eyre::Context;
+use trigait_depth_rerun::RecordingStream;
+use trigait_schema::ports;
+
+use crate::config::Config;
+use crate::state::{Pushed, Sensors};
+
+fn main() -> eyre::Result<()> {
+    let config = Config::from_env()?;
+    let (node, events) =
+        DoraNode::init_from_env().context("depth-metrics: connecting to the dora daemon")?;
+    run(config, node, events).map(|_| ())
+}
+
+/// Totals over all inputs.
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub struct Counters {
+    /// Frames analysed.
+    pub analysed: u64,
+    /// Messages refused (malformed or wrong size).
+    pub refused: u64,
+    /// Inputs whose id is not `depth_<sensor>`.
+    pub unknown: u64,
+}
+
+fn now_nanos() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
+}
+
+/// The event loop.
+pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Result<Counters> {
+    let rec: Option<RecordingStream> = config
+        .rerun
+        .as_ref()
+        .map(|sink| trigait_depth_rerun::open("trigait-depth", sink))
+        .transpose()
+        .map_err(|e| eyre::eyre!("depth-metrics: {}: {e}", config::RERUN))?;
+    let json = config.output_dir.join(config::REPORT_FILE);
+    let mut sensors = Sensors::new(config.params, config.report_every);
+    let mut counters = Counters::default();
+    while let Some(event) = events.recv() {
+        match event {
+            Event::Input { id, data, .. } => {
+                let Some(sensor) = ports::sensor_of(id.as_str(), ports::DEPTH_INPUT_PREFIX) else {
+                    counters.unknown += 1;
+                    eprintln!(
+                        "WARN depth-metrics: ignoring unknown input {:?}",
+                        id.as_str()
+                    );
+                    continue;
+                };
+                match sensors.push(sensor, data.as_array().as_ref(), now_nanos()) {
+                    (Pushed::Refused, why) => {
+                        counters.refused += 1;
+                        eprintln!(
+                            "WARN depth-metrics: skipping a frame of {sensor}: {}",
+                            why.unwrap_or_default()
+                        );
+                    }
+                    (Pushed::Analysed, _) => counters.analysed += 1,
+                    (Pushed::ReportDue, _) => {
+                        counters.analysed += 1;
+                        sensors.report(sensor, rec.as_ref())?;
+                        sensors.write_json(&json)?;
+                    }
+                }
+            }
+            Event::InputClosed { id } => {
+                if let Some(sensor) = ports::sensor_of(id.as_str(), ports::DEPTH_INPUT_PREFIX)
+                    && sensors.report(sensor, rec.as_ref())?
+                {
+                    sensors.write_json(&json)?;
+                }
+            }
+            Event::Stop(_) => {}
+            Event::Error(e) => eprintln!("WARN depth-metrics: event stream error: {e}"),
+            _ => {}
+        }
+    }
+    sensors.report_all(rec.as_ref())?;
+    sensors.write_json(&json)?;
+    // Dropping the stream flushes the .rrd footer.
+    drop(rec);
+    eprintln!(
+        "INFO depth-metrics: {} frames analysed, {} refused, {} unknown inputs; report in {}",
+        counters.analysed,
+        counters.refused,
+        counters.unknown,
+        json.display()
+    );
+    Ok(counters)
+}
