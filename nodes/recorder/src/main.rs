@@ -5,6 +5,7 @@
 
 mod config;
 mod export;
+mod gait;
 mod stats;
 #[cfg(test)]
 mod tests;
@@ -38,6 +39,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     let rec = viz::open(&config)?;
     viz::send_blueprint(&rec).context("recorder: sending the default blueprint")?;
     viz::log_static(&rec, &config.rig).context("recorder: logging the rig")?;
+    let mut gait = gait::Gait::new(&rec).context("recorder: logging the gait styles")?;
     let mut stats = Stats::default();
     let mut ring = Ring::new(config.ring_capacity);
     let mut rerun_errors = 0_u64;
@@ -55,7 +57,8 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                                 .keys()
                                 .filter_map(|j| stats.truth_at(*j, pose.stamp_nanos))
                                 .collect();
-                            let logged = viz::log_pose(&rec, &pose, &truth);
+                            let logged = viz::log_pose(&rec, &pose, &truth)
+                                .and_then(|()| gait.push(&rec, &pose));
                             ring.push(&pose);
                             stats.push_pose(
                                 pose,
@@ -132,7 +135,12 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
             _ => {}
         }
     }
-    let summary = stats.summary(now_nanos());
+    let mut summary = stats.summary(now_nanos());
+    let (gait_report, gait_logged) = gait.finish(&rec);
+    summary.gait = Some(gait_report);
+    if let Err(e) = gait_logged {
+        eprintln!("ERROR recorder: rerun logging of the gait report failed: {e:#}");
+    }
     ring.write(&config.out_dir)
         .context("recorder: writing the trajectory exports")?;
     let path = config.out_dir.join("summary.json");

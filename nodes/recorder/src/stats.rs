@@ -109,6 +109,9 @@ pub struct Summary {
     pub gaps: Vec<Gap>,
     /// Inputs that could not be decoded.
     pub malformed_inputs: u64,
+    /// Gait events and spatiotemporal parameters of the fused walk ([`crate::gait`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gait: Option<trigait_gait::LiveReport>,
 }
 
 /// NTP error of one sensor.
@@ -380,6 +383,7 @@ impl Stats {
             age_ms: Percentiles::of_nanos(&self.age_nanos),
             gaps,
             malformed_inputs: self.malformed,
+            gait: None,
         }
     }
 }

@@ -271,6 +271,81 @@ impl Biquad {
         })
     }
 
+    /// A causal Butterworth low-pass of `order` (1–8) with its −3 dB point at `cutoff_hz`, as a
+    /// cascade of second-order sections (one first-order section for an odd order), by the
+    /// bilinear transform with pre-warping. The analogue prototype's poles lie on the unit
+    /// circle at angles π(2k + n − 1)/(2n); each conjugate pair becomes one section
+    /// 1 / (s² + 2 sin(π(2k − 1)/(2n)) s + 1). Unlike [`Biquad::zero_lag_lowpass`] this is
+    /// run once, forwards, so it has phase lag (≈ 1/(2π f_c) × √2 s at low frequencies for
+    /// order 2, e.g. 37 ms at 6 Hz) and no double-pass correction; it is what a live
+    /// dataflow can do, since it cannot see the future.
+    ///
+    /// # Errors
+    /// [`Error::BadParameter`] for an order outside 1–8, a non-positive rate or a cut-off not
+    /// below 0.45 × the sample rate (0.9 × Nyquist).
+    pub fn causal_butterworth(cutoff_hz: f64, rate_hz: f64, order: usize) -> Result<Vec<Self>> {
+        if !(1..=8).contains(&order) {
+            return Err(Error::BadParameter {
+                name: "order",
+                value: order as f64,
+                expected: "a filter order from 1 to 8",
+            });
+        }
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
+            return Err(Error::BadParameter {
+                name: "rate_hz",
+                value: rate_hz,
+                expected: "a positive sample rate",
+            });
+        }
+        if !(cutoff_hz.is_finite() && cutoff_hz > 0.0 && cutoff_hz < 0.45 * rate_hz) {
+            return Err(Error::BadParameter {
+                name: "cutoff_hz",
+                value: cutoff_hz,
+                expected: "a cut-off above 0 and below 0.9 × the Nyquist frequency",
+            });
+        }
+        let k = (PI * cutoff_hz / rate_hz).tan();
+        let n = order as f64;
+        let mut sections = Vec::with_capacity(order.div_ceil(2));
+        for i in 1..=order / 2 {
+            let damping = 2.0 * (PI * (2.0 * i as f64 - 1.0) / (2.0 * n)).sin();
+            let norm = 1.0 / (1.0 + damping * k + k * k);
+            let b0 = k * k * norm;
+            sections.push(Self {
+                b: [b0, 2.0 * b0, b0],
+                a: [
+                    2.0 * (k * k - 1.0) * norm,
+                    (1.0 - damping * k + k * k) * norm,
+                ],
+            });
+        }
+        if order % 2 == 1 {
+            let norm = 1.0 / (1.0 + k);
+            sections.push(Self {
+                b: [k * norm, k * norm, 0.0],
+                a: [(k - 1.0) * norm, 0.0],
+            });
+        }
+        Ok(sections)
+    }
+
+    /// The state (transposed direct form II) in which a constant input `x0` gives output `x0`
+    /// (the DC gain of a low-pass section is 1), so a filter starts without a transient.
+    #[must_use]
+    pub(crate) fn steady_state(&self, x0: f64) -> [f64; 2] {
+        let z2 = (self.b[2] - self.a[1]) * x0;
+        [(self.b[1] - self.a[0]) * x0 + z2, z2]
+    }
+
+    /// One causal step (transposed direct form II) with the section state `z`.
+    pub(crate) fn step(&self, x: f64, z: &mut [f64; 2]) -> f64 {
+        let y = self.b[0] * x + z[0];
+        z[0] = self.b[1] * x - self.a[0] * y + z[1];
+        z[1] = self.b[2] * x - self.a[1] * y;
+        y
+    }
+
     /// One causal pass (transposed direct form II), started in the steady state of `x[0]`.
     fn pass(&self, x: &[f64]) -> Vec<f64> {
         let [b0, b1, b2] = self.b;

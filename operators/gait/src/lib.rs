@@ -34,6 +34,9 @@
 //! 5. [`filter`] offers a zero-lag Butterworth low-pass (Winter 2009) and the One-Euro filter
 //!    (Casiez et al. 2012) for noisy trajectories; [`plot`] draws trajectories with events and a
 //!    footfall diagram as SVG and PNG, in memory.
+//! 6. [`stream`] holds the *causal* filters a live dataflow can run (One-Euro, a causal
+//!    Butterworth), one state per joint, and [`LiveGait`] runs the event detection over a growing
+//!    stream of poses (the recorder node's gait events and `summary.json` section).
 //!
 //! # Frames and units
 //! World frame of DESIGN.md: metres, seconds, right-handed, Z up, floor at z = 0. The walking
@@ -59,13 +62,16 @@
 mod error;
 mod events;
 pub mod filter;
+mod live;
 mod params;
 pub mod plot;
 mod segment;
 mod signal;
+pub mod stream;
 
 pub use error::{Error, Result};
 pub use events::{EventKind, EventMethod, EventParams, Foot, GaitEvent, detect_events};
+pub use live::{FootCounts, LiveGait, LiveGaitParams, LiveReport, TimedEvent};
 pub use params::{
     Comparison, GaitAnalysis, GaitParams, Stat, Stride, Summary, Tolerances, analyse, compare,
     strides, summarise,

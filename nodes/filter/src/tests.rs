@@ -1,0 +1,200 @@
+//! `filter` contracts: configuration errors name node, key and value; a pose keeps everything
+//! but its positions, a NaN joint moves to `skipped`; malformed inputs are counted, never fatal.
+
+use std::collections::{BTreeMap, HashMap};
+
+use dora_node_api::integration_testing::{
+    IntegrationTestInput, TestingInput, TestingOptions, TestingOutput, drain_outputs,
+    output_channel,
+};
+use dora_node_api::{DoraNode, serde_json};
+use nalgebra::{Matrix3, Point3};
+use trigait_gait::filter::OneEuroParams;
+use trigait_gait::stream::{LowPassParams, PoseFilter, StreamFilter};
+use trigait_schema::{FusedJoint, FusedPose};
+use trigait_skeleton::Joint;
+
+use crate::config::Config;
+use crate::{NON_FINITE_REASON, filter_pose};
+
+fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
+    let map: HashMap<String, String> = pairs
+        .iter()
+        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+        .collect();
+    move |k| map.get(k).cloned()
+}
+
+fn chain(err: &eyre::Report) -> String {
+    err.chain()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
+/// Defaults: One-Euro with the paper-style defaults and a 0.2 s gap; `lowpass` and `none`
+/// select the others with their own keys.
+#[test]
+fn config_defaults_and_kinds() {
+    let c = Config::from_lookup(lookup(&[])).unwrap();
+    assert_eq!(
+        c.params.filter,
+        StreamFilter::OneEuro(OneEuroParams::default())
+    );
+    assert!((c.params.max_gap_secs - 0.2).abs() < 1e-12);
+    let c = Config::from_lookup(lookup(&[
+        ("FILTER", "lowpass"),
+        ("LOWPASS_CUTOFF_HZ", "4"),
+        ("LOWPASS_ORDER", "4"),
+    ]))
+    .unwrap();
+    assert_eq!(
+        c.params.filter,
+        StreamFilter::LowPass(LowPassParams {
+            cutoff_hz: 4.0,
+            order: 4
+        })
+    );
+    let c =
+        Config::from_lookup(lookup(&[("FILTER", "one-euro"), ("ONE_EURO_BETA", "0.5")])).unwrap();
+    let StreamFilter::OneEuro(p) = c.params.filter else {
+        panic!("not one-euro");
+    };
+    assert!((p.beta - 0.5).abs() < 1e-12);
+    assert_eq!(
+        Config::from_lookup(lookup(&[("FILTER", "none")]))
+            .unwrap()
+            .params
+            .filter,
+        StreamFilter::None
+    );
+}
+
+/// Unknown filter, bad numbers: errors start with the node and name key and value.
+#[test]
+fn config_errors_name_node_key_and_value() {
+    let text = chain(&Config::from_lookup(lookup(&[("FILTER", "kalman")])).unwrap_err());
+    assert!(text.starts_with("filter: FILTER=\"kalman\""), "{text}");
+    assert!(text.contains("one-euro, lowpass or none"), "{text}");
+    for (kind, key, raw) in [
+        ("one-euro", "ONE_EURO_MIN_CUTOFF_HZ", "0"),
+        ("one-euro", "ONE_EURO_BETA", "-1"),
+        ("one-euro", "ONE_EURO_DERIVATIVE_CUTOFF_HZ", "fast"),
+        ("lowpass", "LOWPASS_CUTOFF_HZ", "NaN"),
+        ("lowpass", "LOWPASS_ORDER", "2.5"),
+        ("lowpass", "LOWPASS_ORDER", "9"),
+        ("none", "MAX_GAP_SECS", "-0.1"),
+    ] {
+        let text =
+            chain(&Config::from_lookup(lookup(&[("FILTER", kind), (key, raw)])).unwrap_err());
+        assert!(
+            text.starts_with(&format!("filter: {key}={raw:?}")),
+            "{text}"
+        );
+    }
+}
+
+fn pose(seq: u64, x: f64) -> FusedPose {
+    let mut joints = BTreeMap::new();
+    for (joint, dx) in [(Joint::KneeLeft, 0.0), (Joint::AnkleLeft, 0.1)] {
+        joints.insert(
+            joint,
+            FusedJoint {
+                position: Point3::new(x + dx, 0.2, 0.5),
+                covariance: Matrix3::identity() * 1e-4,
+                sensors_used: vec!["k1".into(), "k2".into()],
+                residual_m: 0.003,
+                condition_number: 2.5,
+                estimator: "fusion".into(),
+            },
+        );
+    }
+    let mut skipped = BTreeMap::new();
+    skipped.insert(Joint::HipRight, "too few sensors".to_owned());
+    FusedPose {
+        set_seq: seq,
+        stamp_nanos: 1_700_000_000_000_000_000 + seq as i64 * 33_333_333,
+        joints,
+        skipped,
+    }
+}
+
+/// Only positions change: seq, stamp, covariance, sensors, residual, condition number,
+/// estimator and the skipped list pass through; the output is smoother than the input.
+/// A NaN joint is moved to `skipped` with the reason, the others still go through.
+#[test]
+fn filters_positions_only_and_rejects_nan() {
+    let config = Config::from_lookup(lookup(&[])).unwrap();
+    let mut filter = PoseFilter::new(config.params).unwrap();
+    let mut last_out = 0.0;
+    for seq in 0..30 {
+        let raw = pose(seq, if seq % 2 == 0 { 0.01 } else { -0.01 });
+        let mut out = raw.clone();
+        assert_eq!(filter_pose(&mut filter, &mut out), 0);
+        assert_eq!(
+            (out.set_seq, out.stamp_nanos),
+            (raw.set_seq, raw.stamp_nanos)
+        );
+        assert_eq!(out.skipped, raw.skipped);
+        for (joint, f) in &out.joints {
+            let r = &raw.joints[joint];
+            assert_eq!(
+                (
+                    &f.covariance,
+                    &f.sensors_used,
+                    f.residual_m,
+                    f.condition_number,
+                    &f.estimator
+                ),
+                (
+                    &r.covariance,
+                    &r.sensors_used,
+                    r.residual_m,
+                    r.condition_number,
+                    &r.estimator
+                )
+            );
+        }
+        last_out = out.joints[&Joint::KneeLeft].position.x;
+    }
+    // ±1 cm alternating jitter at rest is cut below 2 mm.
+    assert!(last_out.abs() < 0.002, "{last_out}");
+
+    let mut bad = pose(30, 0.0);
+    if let Some(j) = bad.joints.get_mut(&Joint::AnkleLeft) {
+        j.position.y = f64::NAN;
+    }
+    assert_eq!(filter_pose(&mut filter, &mut bad), 1);
+    assert!(!bad.joints.contains_key(&Joint::AnkleLeft));
+    assert_eq!(bad.skipped[&Joint::AnkleLeft], NON_FINITE_REASON);
+    assert!(
+        bad.joints[&Joint::KneeLeft]
+            .position
+            .iter()
+            .all(|v| v.is_finite())
+    );
+}
+
+/// A malformed input is counted and skipped; nothing is sent for it and the node ends cleanly.
+#[test]
+fn malformed_pose_is_skipped() {
+    let input: IntegrationTestInput = serde_json::from_value(serde_json::json!({
+        "id": "filter",
+        "events": [
+            {"time_offset_secs": 0.0, "type": "Input", "id": "fused_pose", "data": [1, 2, 3]},
+            {"time_offset_secs": 0.01, "type": "Stop"}
+        ]
+    }))
+    .unwrap();
+    let (tx, mut rx) = output_channel();
+    let (node, events) = DoraNode::init_testing(
+        TestingInput::Input(input),
+        TestingOutput::ToChannel(tx),
+        TestingOptions::default(),
+    )
+    .unwrap();
+    let counters = crate::run(Config::from_lookup(lookup(&[])).unwrap(), node, events).unwrap();
+    assert_eq!(counters.malformed, 1);
+    assert_eq!(counters.poses_sent, 0);
+    assert!(drain_outputs(&mut rx).is_empty());
+}
