@@ -116,8 +116,7 @@ def main() -> int:
 {sync_inputs}    outputs:
       - aligned_set
       - frame_timing
-{sync_outputs}
-    env:
+{sync_outputs}    env:
       POLICY: {args.policy}
       FUSION_RATE_HZ: "30"
 
