@@ -22,4 +22,4 @@ export RUSTC_WORKSPACE_WRAPPER="$PWD/scripts/clippy-rustc"
 echo "==> cargo build --all-targets with clippy (release; warnings are errors)"
 cargo build --workspace --all-targets --release
 echo "==> cargo test (release)"
-cargo test --workspace --release
+cargo test --workspace --release --no-fail-fast
