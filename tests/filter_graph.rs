@@ -93,8 +93,13 @@ fn filtered_graph_runs_and_poses_reach_the_recorder() {
         "{temporal:#?}"
     );
     let csv = std::fs::read_to_string(run.out_dir.join("trajectory.csv")).unwrap();
-    let row = csv.lines().nth(1).unwrap();
-    assert!(row.ends_with("k1;k2;k3") || row.contains(';'), "{row}");
+    // The sensors-used column survives the filter: most poses are fused from several sensors
+    // (the first ones may come from one sensor while the others synchronise).
+    let multi = csv.lines().skip(1).filter(|l| l.contains(';')).count();
+    assert!(
+        multi > csv.lines().count() / 2,
+        "{multi} rows fused from several sensors"
+    );
 }
 
 /// The One-Euro stage measurably smooths the poses: the hips' median frame-to-frame second
