@@ -99,6 +99,45 @@ impl Run {
         serde_json::from_str(&text).expect("summary.json is JSON")
     }
 
+    /// Set sequence numbers missing from the recorder's CSV export between its first and last
+    /// set (the sets `summary.json` counts as `dropped_sets`).
+    pub fn missing_sets(&self) -> Vec<u64> {
+        let csv = std::fs::read_to_string(self.out_dir.join("trajectory.csv"))
+            .expect("reading trajectory.csv");
+        let seqs: std::collections::BTreeSet<u64> = csv
+            .lines()
+            .skip(1)
+            .filter_map(|l| l.split(',').nth(1)?.parse().ok())
+            .collect();
+        match (seqs.first(), seqs.last()) {
+            (Some(&a), Some(&b)) => (a..=b).filter(|q| !seqs.contains(q)).collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// No set is lost once the graph runs. Known and left open (see dataflows/README.md): in
+    /// the first half second, while dora is still wiring the nodes' direct links, a set sent
+    /// one hop after `sync` is now and then never delivered (seq 2, or 2 and 3, in runs where
+    /// every later set arrived). Those are allowed here, and only those; all later sets must
+    /// arrive, and the loss is printed.
+    pub fn assert_no_sets_lost_after_startup(&self) {
+        const STARTUP_SETS: u64 = 15;
+        let missing = self.missing_sets();
+        if !missing.is_empty() {
+            eprintln!("sets lost at start-up: {missing:?}");
+        }
+        assert!(
+            missing.iter().all(|&q| q < STARTUP_SETS) && missing.len() <= 3,
+            "sets lost after start-up: {missing:?}"
+        );
+        let s = self.summary();
+        assert_eq!(
+            s["dropped_sets"].as_u64(),
+            Some(missing.len() as u64),
+            "summary and CSV disagree"
+        );
+    }
+
     /// Temporal rows per entity path in the `.rrd`, and the static entity paths.
     pub fn rrd_rows(&self) -> (BTreeMap<String, u64>, BTreeMap<String, u64>) {
         rrd_rows_of(&self.out_dir.join("trigait.rrd"))
