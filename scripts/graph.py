@@ -16,6 +16,21 @@ import math
 import sys
 
 
+def data_input(name: str, source: str, queue_size: int) -> str:
+    """An input on a data edge: lossless (`queue_policy: backpressure`).
+
+    dora 1.1 sends an output straight to its consumers over zenoh once its start-up handshake
+    succeeds, and that path drops silently under congestion (dora-rs/dora#3397, #3439): we lost
+    seq 2-3 of a run that way. A backpressure consumer pins the producer's output to the daemon
+    path, which queues instead of dropping. NTP edges stay on the fast path: a lost exchange is
+    only a missing sample, and its delay feeds the offset estimate.
+    """
+    return (
+        f"      {name}:\n        source: {source}\n        queue_size: {queue_size}\n"
+        "        queue_policy: backpressure\n"
+    )
+
+
 def source(i: int, args: argparse.Namespace, root: str) -> str:
     sid = f"k{i + 1}"
     env = [f"SENSOR_ID: {sid}", f"RIG: {args.rig}", f"BACKEND: {args.backend}"]
@@ -68,14 +83,14 @@ def main() -> int:
     n = args.sensors
     root = args.root
     ids = [f"k{i + 1}" for i in range(n)]
-    sync_inputs = "".join(f"      frame_{s}: {s}/frame\n      ntp_{s}: {s}/ntp_reply\n" for s in ids)
+    sync_inputs = "".join(
+        data_input(f"frame_{s}", f"{s}/frame", 100) + f"      ntp_{s}: {s}/ntp_reply\n" for s in ids
+    )
     # One NTP request output per source: a request reaches only its sensor (see the sync node).
     sync_outputs = "".join(f"      - ntp_request_{s}\n" for s in ids)
-    rec_inputs = "".join(f"      frame_{s}: {s}/frame\n" for s in ids)
+    rec_inputs = "".join(data_input(f"frame_{s}", f"{s}/frame", 100) for s in ids)
     if args.backend == "sim":
-        rec_inputs += "".join(
-            f"      truth_{s}:\n        source: {s}/ground_truth\n        queue_size: 1000\n" for s in ids
-        )
+        rec_inputs += "".join(data_input(f"truth_{s}", f"{s}/ground_truth", 100) for s in ids)
     filter_node = ""
     pose_source = "trilaterate"
     if args.filter:
@@ -91,10 +106,7 @@ def main() -> int:
     build: cargo build --release --workspace --all-targets
     path: {root}target/release/trigait-filter-node
     inputs:
-      fused_pose:
-        source: trilaterate/fused_pose
-        queue_size: 100
-    outputs: [fused_pose]
+{data_input("fused_pose", "trilaterate/fused_pose", 100)}    outputs: [fused_pose]
     env:
       FILTER: {args.filter}
 {filter_env}"""
@@ -124,10 +136,7 @@ def main() -> int:
     build: cargo build --release --workspace --all-targets
     path: {root}target/release/trigait-trilaterate-node
     inputs:
-      aligned_set:
-        source: sync/aligned_set
-        queue_size: 100
-    outputs: [fused_pose]
+{data_input("aligned_set", "sync/aligned_set", 100)}    outputs: [fused_pose]
     env:
       METHOD: {args.method}
       RIG: {args.rig}
@@ -136,13 +145,7 @@ def main() -> int:
     build: cargo build --release --workspace --all-targets
     path: {root}target/release/trigait-recorder-node
     inputs:
-      fused_pose:
-        source: {pose_source}/fused_pose
-        queue_size: 1000
-      frame_timing:
-        source: sync/frame_timing
-        queue_size: 1000
-{rec_inputs}    env:
+{data_input("fused_pose", f"{pose_source}/fused_pose", 100)}{data_input("frame_timing", "sync/frame_timing", 100)}{rec_inputs}    env:
       OUTPUT_DIR: {args.out_dir}
       RIG: {args.rig}
 """)

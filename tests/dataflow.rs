@@ -47,13 +47,11 @@ fn eval_fusion_rmse() -> f64 {
 /// Checks shared by every simulated graph: sets flow without drops, every sensor is
 /// synchronised to < 1 ms for ≥ 99 % of its frames, and the recording holds what the summary
 /// counted.
-fn check_simulated(run: &Run, sensors: usize, ntp_below_1ms: bool, no_drops: bool) -> Value {
+fn check_simulated(run: &Run, sensors: usize, ntp_below_1ms: bool) -> Value {
     let s = run.summary();
     let sets = s["sets_fused"].as_u64().unwrap();
     assert!(sets >= 250, "only {sets} sets in 12 s at 30 Hz: {s:#}");
-    if no_drops {
-        run.assert_no_sets_lost_after_startup();
-    }
+    run.assert_no_sets_lost();
     let ntp = s["ntp"].as_object().unwrap();
     assert_eq!(ntp.len(), sensors, "{s:#}");
     for (id, n) in ntp {
@@ -64,7 +62,8 @@ fn check_simulated(run: &Run, sensors: usize, ntp_below_1ms: bool, no_drops: boo
         );
     }
     assert_eq!(s["frames_in"].as_object().unwrap().len(), sensors);
-    let (temporal, statics) = run.rrd_rows();
+    let rrd = run.rrd();
+    let (temporal, statics) = (&rrd.temporal, &rrd.statics);
     assert_eq!(
         temporal.get("world/fused").copied(),
         Some(sets),
@@ -97,7 +96,7 @@ fn check_simulated(run: &Run, sensors: usize, ntp_below_1ms: bool, no_drops: boo
         statics.contains_key("world/fused"),
         "annotation context: {statics:#?}"
     );
-    let blueprint = run.rrd_blueprint();
+    let blueprint = &rrd.blueprint;
     assert!(
         blueprint.iter().any(|p| p == "viewport")
             && blueprint
@@ -117,7 +116,7 @@ fn check_simulated(run: &Run, sensors: usize, ntp_below_1ms: bool, no_drops: boo
 #[test]
 fn default_graph_meets_acceptance() {
     let run = run_graph("dataflow.yml");
-    let s = check_simulated(&run, 3, true, true);
+    let s = check_simulated(&run, 3, true);
     let rmse = f(&s["rmse_all_m"]);
     let eval = eval_fusion_rmse();
     eprintln!(
@@ -203,7 +202,7 @@ fn five_sensor_graph_differs_only_in_yaml() {
     expected.splice(3..3, ["k4".to_owned(), "k5".to_owned()]);
     assert_eq!(ids(&five), expected);
     let run = run_graph("dataflows/five-sensors.yml");
-    let s = check_simulated(&run, 5, false, true);
+    let s = check_simulated(&run, 5, false);
     eprintln!(
         "five sensors: RMSE {:.4} m, latency {:#}",
         f(&s["rmse_all_m"]),
@@ -212,14 +211,13 @@ fn five_sensor_graph_differs_only_in_yaml() {
     assert!(f(&s["rmse_all_m"]) < 0.05, "{s:#}");
 }
 
-/// Sixteen sensors at 30 Hz on one host: no code change, every sensor fused and recorded.
-/// Dropped sets, latency and NTP error are reported, not asserted: issue 4 asks for no drops
-/// and p99 ≤ 20 ms at 16 sensors, which this 2-core host does not reliably meet yet (0–2 drops,
-/// p99 up to hundreds of ms while the replies of 16 sensors queue behind each other).
+/// Sixteen sensors at 30 Hz on one host: no code change, every sensor fused and recorded, no
+/// set lost. Latency and NTP error are reported, not asserted: on a 2-core host shared with
+/// other work the 16-sensor p99 depends on what else runs (dataflows/README.md has the numbers).
 #[test]
 fn sixteen_sensor_graph_scales() {
     let run = run_graph("dataflows/sixteen-sensors.yml");
-    let s = check_simulated(&run, 16, false, false);
+    let s = check_simulated(&run, 16, false);
     eprintln!(
         "sixteen sensors: RMSE {:.4} m, dropped sets {}, latency {:#}",
         f(&s["rmse_all_m"]),
@@ -239,7 +237,7 @@ fn replay_graph_runs() {
     }
     assert!(s["sets_fused"].as_u64().unwrap() > 200, "{s:#}");
     assert!(s["rmse_all_m"].is_null(), "no ground truth in a replay");
-    let (temporal, _) = run.rrd_rows();
+    let temporal = run.rrd().temporal;
     assert!(
         temporal
             .get("world/sensors/k2/joints")
@@ -308,7 +306,7 @@ fn killing_a_source_mid_run() {
     assert!(f(&s["rmse_all_m"]) < 0.1, "{s:#}");
     let frames = s["frames_in"].as_object().unwrap();
     assert!(frames["k2"].as_u64().unwrap() < frames["k1"].as_u64().unwrap() * 2 / 3);
-    let (temporal, _) = run.rrd_rows();
+    let temporal = run.rrd().temporal;
     assert_eq!(
         temporal.get("world/fused").copied(),
         s["sets_fused"].as_u64()

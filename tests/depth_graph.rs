@@ -12,7 +12,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{f, rrd_rows_of, run_graph};
+use common::{Rrd, f, run_graph};
 use serde_json::Value;
 
 const GRAPH: &str = "dataflows/depth.yml";
@@ -160,7 +160,9 @@ fn issue_6_replayed_real_frames_arrive_unchanged() {
 #[test]
 fn issue_6_depth_rrd_holds_the_maps() {
     let (run, v) = report();
-    let (temporal, statics) = rrd_rows_of(&run.out_dir.join("depth.rrd"));
+    let Rrd {
+        temporal, statics, ..
+    } = Rrd::read(&run.out_dir.join("depth.rrd"));
     for sensor in ["k1", "k2", "k3"] {
         let reports = v["sensors"][sensor]["reports_written"].as_u64().unwrap();
         assert!(reports >= 2, "{sensor}: {reports} reports");
@@ -242,7 +244,9 @@ fn issue_6_cli_rrd_writes_the_maps() {
         3.0,
         0.10
     ));
-    let (temporal, statics) = rrd_rows_of(&rrd);
+    let Rrd {
+        temporal, statics, ..
+    } = Rrd::read(&rrd);
     for map in MAPS {
         let entity = format!("depth/sequence/maps/{map}");
         assert_eq!(

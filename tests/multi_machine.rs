@@ -161,7 +161,7 @@ fn multi_machine_graph_runs_on_two_daemons() {
         assert!(f(&ntp["abs_error_ms"]["p50"]) < 1.0, "{k}: {ntp:#}");
     }
     assert!(f(&s["rmse_all_m"]) < 0.05, "{s:#}");
-    let (temporal, _) = run.rrd_rows();
+    let temporal = run.rrd().temporal;
     assert_eq!(
         temporal.get("world/fused").copied(),
         s["sets_fused"].as_u64()

@@ -115,39 +115,46 @@ impl Run {
         }
     }
 
-    /// No set is lost once the graph runs. Known and left open (see dataflows/README.md): in
-    /// the first half second, while dora is still wiring the nodes' direct links, a set sent
-    /// one hop after `sync` is now and then never delivered (seq 2, or 2 and 3, in runs where
-    /// every later set arrived). Those are allowed here, and only those; all later sets must
-    /// arrive, and the loss is printed.
-    pub fn assert_no_sets_lost_after_startup(&self) {
-        const STARTUP_SETS: u64 = 15;
+    /// No set is lost: no gap in the CSV's set sequence, `summary.json` agrees, and dora reported
+    /// no message dropped at the recorder. The data edges of every graph are
+    /// `queue_policy: backpressure`, which keeps them off dora's lossy direct path.
+    pub fn assert_no_sets_lost(&self) {
         let missing = self.missing_sets();
-        if !missing.is_empty() {
-            eprintln!("sets lost at start-up: {missing:?}");
-        }
-        assert!(
-            missing.iter().all(|&q| q < STARTUP_SETS) && missing.len() <= 3,
-            "sets lost after start-up: {missing:?}"
-        );
+        assert!(missing.is_empty(), "sets lost: {missing:?}");
         let s = self.summary();
-        assert_eq!(
-            s["dropped_sets"].as_u64(),
-            Some(missing.len() as u64),
-            "summary and CSV disagree"
+        assert_eq!(s["dropped_sets"].as_u64(), Some(0), "summary: {s:#}");
+        let drops = &s["input_drops"];
+        assert!(
+            drops.as_object().is_some_and(|d| d.is_empty()),
+            "dora dropped recorder inputs: {drops}"
         );
     }
 
-    /// Temporal rows per entity path in the `.rrd`, and the static entity paths.
-    pub fn rrd_rows(&self) -> (BTreeMap<String, u64>, BTreeMap<String, u64>) {
-        rrd_rows_of(&self.out_dir.join("trigait.rrd"))
+    /// The `.rrd` read back once (one Python start per run).
+    pub fn rrd(&self) -> Rrd {
+        Rrd::read(&self.out_dir.join("trigait.rrd"))
     }
+}
 
-    /// Entity paths of the `.rrd`'s blueprint store (the default viewer layout; empty if none).
-    pub fn rrd_blueprint(&self) -> Vec<String> {
-        row_map(&rrd_json_of(&self.out_dir.join("trigait.rrd")), "blueprint")
-            .into_keys()
-            .collect()
+/// What an `.rrd` holds, per entity path.
+#[derive(Debug, Clone)]
+pub struct Rrd {
+    /// Temporal rows.
+    pub temporal: BTreeMap<String, u64>,
+    /// Static rows.
+    pub statics: BTreeMap<String, u64>,
+    /// Entity paths of the blueprint store (the default viewer layout; empty if none).
+    pub blueprint: Vec<String>,
+}
+
+impl Rrd {
+    pub fn read(rrd: &Path) -> Self {
+        let v = rrd_json_of(rrd);
+        Self {
+            temporal: row_map(&v, "temporal"),
+            statics: row_map(&v, "static"),
+            blueprint: row_map(&v, "blueprint").into_keys().collect(),
+        }
     }
 }
 
@@ -270,11 +277,4 @@ fn row_map(v: &Value, key: &str) -> BTreeMap<String, u64> {
                 .collect()
         })
         .unwrap_or_default()
-}
-
-/// Temporal and static rows per entity path of any `.rrd` (for graphs that write their own
-/// recording, e.g. `depth.rrd`, and for CLI recordings).
-pub fn rrd_rows_of(rrd: &Path) -> (BTreeMap<String, u64>, BTreeMap<String, u64>) {
-    let v = rrd_json_of(rrd);
-    (row_map(&v, "temporal"), row_map(&v, "static"))
 }

@@ -134,6 +134,10 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
             Event::Error(e) => eprintln!("WARN recorder: event stream error: {e}"),
             _ => {}
         }
+        for (id, n) in events.drain_drop_counts() {
+            eprintln!("WARN recorder: dora dropped {n} message(s) on input {id} (queue full)");
+            *stats.input_drops.entry(id.to_string()).or_default() += n;
+        }
     }
     let mut summary = stats.summary(now_nanos());
     let (gait_report, gait_logged) = gait.finish(&rec);

@@ -38,6 +38,9 @@ pub struct Stats {
     frames: BTreeMap<String, SensorFrames>,
     /// Inputs that could not be decoded.
     pub malformed: u64,
+    /// Messages dora dropped per input (queue overflow), as reported by
+    /// `EventStream::drain_drop_counts`.
+    pub input_drops: BTreeMap<String, u64>,
 }
 
 #[derive(Debug, Default)]
@@ -109,6 +112,8 @@ pub struct Summary {
     pub gaps: Vec<Gap>,
     /// Inputs that could not be decoded.
     pub malformed_inputs: u64,
+    /// Messages dora reported dropped per input (queue overflow at the recorder).
+    pub input_drops: BTreeMap<String, u64>,
     /// Gait events and spatiotemporal parameters of the fused walk ([`crate::gait`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gait: Option<trigait_gait::LiveReport>,
@@ -168,14 +173,26 @@ impl Percentiles {
 
 impl Stats {
     /// Ground truth rows (world frame, `local_stamp_nanos` = true instant).
+    ///
+    /// Every simulated source sends the same world truth, so all but the first copy of an instant
+    /// is skipped before any work is done on it: with 16 sources the recorder would otherwise
+    /// build and insert each sample 16 times on its hot path.
     pub fn push_truth(&mut self, rows: Vec<trigait_skeleton::SkeletonFrame>) {
+        let mut fresh = false;
         for row in rows {
+            if self.truth.contains_key(&row.local_stamp_nanos) {
+                continue;
+            }
+            fresh = true;
             let joints = row
                 .joints
                 .iter()
                 .map(|s| (s.joint, s.position_in_kinect))
                 .collect();
             self.truth.insert(row.local_stamp_nanos, joints);
+        }
+        if !fresh {
+            return;
         }
         if let Some((&newest, _)) = self.truth.last_key_value() {
             let keep = self.truth.split_off(&(newest - TRUTH_HORIZON_NANOS));
@@ -383,6 +400,7 @@ impl Stats {
             age_ms: Percentiles::of_nanos(&self.age_nanos),
             gaps,
             malformed_inputs: self.malformed,
+            input_drops: self.input_drops.clone(),
             gait: None,
         }
     }
