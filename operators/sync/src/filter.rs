@@ -14,7 +14,12 @@
 //! 4. maps a sensor-local stamp to server time by inverting that line, with an uncertainty made of
 //!    the tightest eq. 6.3 bound among the samples used plus three standard deviations of the fitted
 //!    line at that instant (which grows with the distance from the samples: extrapolation error);
-//! 5. detects a clock **step** (someone set the sensor's clock, an NTP daemon slewed it): a sample
+//! 5. under load, when every exchange so far took longer than
+//!    [`ClockFilterParams::max_delay_nanos`], falls back to the over-limit samples once
+//!    [`ClockFilterParams::min_used`] of them are in: a sensor then synchronises with an honest,
+//!    wide uncertainty (their d/2) instead of never; the first sample within the limit replaces
+//!    them;
+//! 6. detects a clock **step** (someone set the sensor's clock, an NTP daemon slewed it): a sample
 //!    whose offset is outside every error bound is held back; [`ClockFilterParams::step_confirm_samples`]
 //!    such samples agreeing with each other reset the window to them and are reported as a step.
 //!
@@ -38,7 +43,8 @@ pub struct ClockFilterParams {
     /// Time the used samples must span before drift is fitted rather than carried over
     /// (default 2 s).
     pub min_drift_span_nanos: i64,
-    /// Samples with a larger round-trip delay are rejected outright (default 20 ms).
+    /// Samples with a larger round-trip delay are rejected while the window holds any sample
+    /// within it (default 20 ms); see the module docs, point 5, for the fallback.
     pub max_delay_nanos: i64,
     /// A fitted drift beyond this is treated as a failed fit (default 500 ppm; quartz is ≤ 100).
     pub max_drift_ppm: f64,
@@ -253,6 +259,8 @@ impl Fit {
 pub struct ClockFilter {
     params: ClockFilterParams,
     window: VecDeque<NtpMeasurement>,
+    /// Over-limit samples collected while the window has none within the limit (the fallback).
+    overdelayed: VecDeque<NtpMeasurement>,
     pending: Vec<(NtpMeasurement, i64)>,
     fit: Option<Fit>,
     /// Drift and its variance, kept across steps (a step moves the offset, not the rate).
@@ -268,6 +276,7 @@ impl ClockFilter {
         Ok(ClockFilter {
             params,
             window: VecDeque::new(),
+            overdelayed: VecDeque::new(),
             pending: Vec::new(),
             fit: None,
             drift_prior: None,
@@ -283,11 +292,14 @@ impl ClockFilter {
             Ok(m) => m,
             Err(r) => return SampleOutcome::Rejected(r),
         };
-        if m.delay_nanos > self.params.max_delay_nanos {
-            return SampleOutcome::Rejected(Rejection::DelayAboveLimit {
-                delay_nanos: m.delay_nanos,
-                limit_nanos: self.params.max_delay_nanos,
-            });
+        let limit = self.params.max_delay_nanos;
+        let over_limit = m.delay_nanos > limit;
+        let too_slow = Rejection::DelayAboveLimit {
+            delay_nanos: m.delay_nanos,
+            limit_nanos: limit,
+        };
+        if over_limit && self.window.iter().any(|w| w.delay_nanos <= limit) {
+            return SampleOutcome::Rejected(too_slow);
         }
         if let Some(newest_t1) = self.newest_t1
             && sample.t1 <= newest_t1
@@ -298,6 +310,28 @@ impl ClockFilter {
             });
         }
         self.newest_t1 = Some(sample.t1);
+        if over_limit && self.window.is_empty() {
+            // Nothing within the limit yet: collect, and fall back once there are enough.
+            self.overdelayed.push_back(m);
+            while self.overdelayed.len() > self.params.window_len {
+                self.overdelayed.pop_front();
+            }
+            if self.overdelayed.len() < self.params.min_used {
+                return SampleOutcome::Rejected(too_slow);
+            }
+            self.window = std::mem::take(&mut self.overdelayed);
+            self.refit();
+            return SampleOutcome::Accepted(m);
+        }
+        if !over_limit && self.window.iter().any(|w| w.delay_nanos > limit) {
+            // The first sample within the limit ends the fallback.
+            self.window.retain(|w| w.delay_nanos <= limit);
+            self.overdelayed.clear();
+            self.pending.clear();
+            self.window.push_back(m);
+            self.refit();
+            return SampleOutcome::Accepted(m);
+        }
 
         if let Some(fit) = self.fit {
             let (predicted, sigma) = fit.offset_at(m.server_mid_nanos);
@@ -317,6 +351,7 @@ impl ClockFilter {
             }
         }
         self.pending.clear();
+        self.overdelayed.clear();
         self.window.push_back(m);
         while self.window.len() > self.params.window_len {
             self.window.pop_front();
@@ -659,6 +694,48 @@ mod tests {
         assert!(matches!(
             out,
             SampleOutcome::Rejected(Rejection::OutOfOrder { .. })
+        ));
+    }
+
+    /// Under load every exchange is over the delay limit: after `min_used` of them the filter
+    /// synchronises on them with their wide bound, and the first fast exchange takes over.
+    #[test]
+    fn falls_back_to_slow_samples_until_a_fast_one_arrives() {
+        let mut f = ClockFilter::new(ClockFilterParams::default()).unwrap();
+        let offset = 12_000_000;
+        // 30 ms round trips, asymmetric by up to 10 ms (the truth is inside each d/2 bound).
+        let slow = |k: i64| {
+            let mut s = sample(k * 100_000_000, offset, 0.0, 15_000_000);
+            s.t4 += (k % 3) * 5_000_000;
+            s
+        };
+        for k in 0..3 {
+            assert!(matches!(
+                f.push(slow(k)),
+                SampleOutcome::Rejected(Rejection::DelayAboveLimit { .. })
+            ));
+            assert!(f.server_from_local(0).is_none());
+        }
+        assert!(matches!(f.push(slow(3)), SampleOutcome::Accepted(_)));
+        let server = 400_000_000;
+        let mapped = f.server_from_local(server + offset).unwrap();
+        let err = (mapped.server_nanos - server).abs();
+        assert!(mapped.uncertainty_nanos >= 15_000_000, "{mapped:?}");
+        assert!(err <= mapped.uncertainty_nanos, "{err} > {mapped:?}");
+        // More slow samples keep coming in while nothing faster exists.
+        assert!(matches!(f.push(slow(4)), SampleOutcome::Accepted(_)));
+        // One fast exchange replaces the fallback; slow ones are rejected again.
+        assert!(matches!(
+            f.push(sample(500_000_000, offset, 0.0, 100_000)),
+            SampleOutcome::Accepted(_)
+        ));
+        let e = f.estimate().unwrap();
+        assert_eq!(e.samples_in_window, 1);
+        assert!((e.offset_nanos - offset).abs() < 20_000, "{e:?}");
+        assert!(e.uncertainty_nanos < 1_000_000, "{e:?}");
+        assert!(matches!(
+            f.push(slow(6)),
+            SampleOutcome::Rejected(Rejection::DelayAboveLimit { .. })
         ));
     }
 
