@@ -351,16 +351,9 @@ pub fn send_due(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use trigait_node_testing::lookup;
 
-    fn lookup<'a>(pairs: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
-        move |k| {
-            pairs
-                .iter()
-                .find(|(key, _)| *key == k)
-                .map(|(_, v)| (*v).to_owned())
-        }
-    }
+    use super::*;
 
     fn config(pairs: &[(&str, &str)]) -> Config {
         let mut all = vec![("SENSOR_ID", "k1")];
