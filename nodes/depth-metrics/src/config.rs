@@ -14,9 +14,9 @@
 
 use std::path::PathBuf;
 
-use eyre::{bail, eyre};
 use trigait_depth::MetricsParams;
 use trigait_depth_rerun::Sink;
+use trigait_node_config::env_value;
 
 /// Env var: output folder.
 pub const OUTPUT_DIR: &str = "OUTPUT_DIR";
@@ -51,23 +51,15 @@ pub struct Config {
     pub params: MetricsParams,
 }
 
+/// `key` as an integer of at least `min`, `default` when unset.
 fn integer(
     lookup: &impl Fn(&str) -> Option<String>,
     key: &str,
     default: usize,
     min: usize,
 ) -> eyre::Result<usize> {
-    let v = match lookup(key) {
-        None => default,
-        Some(raw) => raw
-            .trim()
-            .parse::<usize>()
-            .map_err(|e| eyre!("{NODE}: {key}={raw:?} is invalid: {e}"))?,
-    };
-    if v < min {
-        bail!("{NODE}: {key}={v} must be at least {min}");
-    }
-    Ok(v)
+    let expected = format!("an integer ≥ {min}");
+    Ok(env_value(NODE, lookup, key, |v| *v >= min, &expected)?.unwrap_or(default))
 }
 
 impl Config {
@@ -89,14 +81,13 @@ impl Config {
             frame_metric_stride: integer(&lookup, FRAME_STRIDE, 30, 1)?,
             ..MetricsParams::default()
         };
-        if let Some(raw) = lookup(TARGET_DISTANCE_M) {
-            let d: f64 = raw
-                .trim()
-                .parse()
-                .map_err(|e| eyre!("{NODE}: {TARGET_DISTANCE_M}={raw:?} is invalid: {e}"))?;
-            if !(d > 0.0 && d.is_finite()) {
-                bail!("{NODE}: {TARGET_DISTANCE_M}={d} must be a positive distance in metres");
-            }
+        if let Some(d) = env_value(
+            NODE,
+            &lookup,
+            TARGET_DISTANCE_M,
+            |d: &f64| *d > 0.0 && d.is_finite(),
+            "a positive distance in metres",
+        )? {
             params.accuracy.target_distance_m = Some(d);
         }
         Ok(Self {

@@ -4,19 +4,11 @@
 
 use trigait_depth::sim::{Scene, SimParams, Simulator};
 use trigait_depth_rerun::Sink;
+use trigait_node_testing::lookup;
 use trigait_schema::{ArrayRef, DepthFrameMessage, Message, NtpExchange};
 
 use crate::config::Config;
 use crate::state::{Pushed, Sensors};
-
-fn lookup<'a>(pairs: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
-    move |k| {
-        pairs
-            .iter()
-            .find(|(key, _)| *key == k)
-            .map(|(_, v)| (*v).to_owned())
-    }
-}
 
 fn message(sim: &mut Simulator, seq: u64) -> ArrayRef {
     DepthFrameMessage {

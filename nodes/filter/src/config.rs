@@ -19,6 +19,7 @@
 use eyre::bail;
 use trigait_gait::filter::OneEuroParams;
 use trigait_gait::stream::{LowPassParams, StreamFilter, StreamParams};
+use trigait_node_config::env_number_where;
 
 /// Env var: filter kind.
 pub const FILTER: &str = "FILTER";
@@ -44,22 +45,6 @@ pub struct Config {
     pub params: StreamParams,
 }
 
-fn number(
-    lookup: &impl Fn(&str) -> Option<String>,
-    key: &str,
-    default: f64,
-    ok: impl Fn(f64) -> bool,
-    expected: &str,
-) -> eyre::Result<f64> {
-    let Some(raw) = lookup(key) else {
-        return Ok(default);
-    };
-    match raw.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && ok(v) => Ok(v),
-        _ => bail!("{NODE}: {key}={raw:?} is invalid: expected {expected}"),
-    }
-}
-
 impl Config {
     /// From the process environment.
     pub fn from_env() -> eyre::Result<Self> {
@@ -74,15 +59,24 @@ impl Config {
             "one-euro" | "one_euro" | "oneeuro" => {
                 let d = OneEuroParams::default();
                 StreamFilter::OneEuro(OneEuroParams {
-                    min_cutoff_hz: number(
+                    min_cutoff_hz: env_number_where(
+                        NODE,
                         &lookup,
                         MIN_CUTOFF_HZ,
                         d.min_cutoff_hz,
                         positive,
                         "a cut-off in Hz above 0",
                     )?,
-                    beta: number(&lookup, BETA, d.beta, |v| v >= 0.0, "a number ≥ 0")?,
-                    derivative_cutoff_hz: number(
+                    beta: env_number_where(
+                        NODE,
+                        &lookup,
+                        BETA,
+                        d.beta,
+                        |v| v >= 0.0,
+                        "a number ≥ 0",
+                    )?,
+                    derivative_cutoff_hz: env_number_where(
+                        NODE,
                         &lookup,
                         DERIVATIVE_CUTOFF_HZ,
                         d.derivative_cutoff_hz,
@@ -93,7 +87,8 @@ impl Config {
             }
             "lowpass" | "low-pass" | "butterworth" => {
                 let d = LowPassParams::default();
-                let order = number(
+                let order = env_number_where(
+                    NODE,
                     &lookup,
                     ORDER,
                     d.order as f64,
@@ -101,7 +96,8 @@ impl Config {
                     "an integer order from 1 to 8",
                 )? as usize;
                 StreamFilter::LowPass(LowPassParams {
-                    cutoff_hz: number(
+                    cutoff_hz: env_number_where(
+                        NODE,
                         &lookup,
                         CUTOFF_HZ,
                         d.cutoff_hz,
@@ -117,7 +113,8 @@ impl Config {
                  (the zero-lag Butterworth needs the whole recording: `trigait gait --filter`)"
             ),
         };
-        let max_gap_secs = number(
+        let max_gap_secs = env_number_where(
+            NODE,
             &lookup,
             MAX_GAP_SECS,
             StreamParams::default().max_gap_secs,

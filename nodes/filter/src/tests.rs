@@ -1,36 +1,19 @@
 //! `filter` contracts: configuration errors name node, key and value; a pose keeps everything
 //! but its positions, a NaN joint moves to `skipped`; malformed inputs are counted, never fatal.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 
-use dora_node_api::integration_testing::{
-    IntegrationTestInput, TestingInput, TestingOptions, TestingOutput, drain_outputs,
-    output_channel,
-};
-use dora_node_api::{DoraNode, serde_json};
+use dora_node_api::integration_testing::{TestingOptions, drain_outputs};
+use dora_node_api::serde_json;
 use nalgebra::{Matrix3, Point3};
 use trigait_gait::filter::OneEuroParams;
 use trigait_gait::stream::{LowPassParams, PoseFilter, StreamFilter};
+use trigait_node_testing::{chain, init_node, lookup};
 use trigait_schema::{FusedJoint, FusedPose};
 use trigait_skeleton::Joint;
 
 use crate::config::Config;
 use crate::{NON_FINITE_REASON, filter_pose};
-
-fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
-    let map: HashMap<String, String> = pairs
-        .iter()
-        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
-        .collect();
-    move |k| map.get(k).cloned()
-}
-
-fn chain(err: &eyre::Report) -> String {
-    err.chain()
-        .map(ToString::to_string)
-        .collect::<Vec<_>>()
-        .join(": ")
-}
 
 /// Defaults: One-Euro with the paper-style defaults and a 0.2 s gap; `lowpass` and `none`
 /// select the others with their own keys.
@@ -178,21 +161,16 @@ fn filters_positions_only_and_rejects_nan() {
 /// A malformed input is counted and skipped; nothing is sent for it and the node ends cleanly.
 #[test]
 fn malformed_pose_is_skipped() {
-    let input: IntegrationTestInput = serde_json::from_value(serde_json::json!({
-        "id": "filter",
-        "events": [
-            {"time_offset_secs": 0.0, "type": "Input", "id": "fused_pose", "data": [1, 2, 3]},
-            {"time_offset_secs": 0.01, "type": "Stop"}
-        ]
-    }))
-    .unwrap();
-    let (tx, mut rx) = output_channel();
-    let (node, events) = DoraNode::init_testing(
-        TestingInput::Input(input),
-        TestingOutput::ToChannel(tx),
+    let (node, events, mut rx) = init_node(
+        serde_json::json!({
+            "id": "filter",
+            "events": [
+                {"time_offset_secs": 0.0, "type": "Input", "id": "fused_pose", "data": [1, 2, 3]},
+                {"time_offset_secs": 0.01, "type": "Stop"}
+            ]
+        }),
         TestingOptions::default(),
-    )
-    .unwrap();
+    );
     let counters = crate::run(Config::from_lookup(lookup(&[])).unwrap(), node, events).unwrap();
     assert_eq!(counters.malformed, 1);
     assert_eq!(counters.poses_sent, 0);

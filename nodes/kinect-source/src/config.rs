@@ -23,6 +23,7 @@
 use std::path::PathBuf;
 
 use eyre::{bail, eyre};
+use trigait_node_config::{env_number, env_number_where, env_value};
 
 /// Env var names.
 pub const SENSOR_ID: &str = "SENSOR_ID";
@@ -111,31 +112,6 @@ pub struct Config {
 
 const NODE: &str = "kinect-source";
 
-fn parse<T: std::str::FromStr>(
-    lookup: &impl Fn(&str) -> Option<String>,
-    key: &str,
-    default: T,
-) -> eyre::Result<T>
-where
-    T::Err: std::fmt::Display,
-{
-    match lookup(key) {
-        None => Ok(default),
-        Some(raw) => raw
-            .trim()
-            .parse()
-            .map_err(|e| eyre!("{NODE}: {key}={raw:?} is invalid: {e}")),
-    }
-}
-
-fn finite(key: &str, v: f64) -> eyre::Result<f64> {
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        bail!("{NODE}: {key}={v} must be finite")
-    }
-}
-
 impl Config {
     /// From the process environment.
     pub fn from_env() -> eyre::Result<Self> {
@@ -154,13 +130,14 @@ impl Config {
         let backend = match backend_name.trim() {
             "sim" => Backend::Sim {
                 motion: lookup(MOTION).unwrap_or_else(|| "walker".into()),
-                walk_secs: {
-                    let v = finite(WALK_SECS, parse(&lookup, WALK_SECS, 2.5)?)?;
-                    if v <= 0.5 {
-                        bail!("{NODE}: {WALK_SECS}={v} must exceed 0.5 s");
-                    }
-                    v
-                },
+                walk_secs: env_number_where(
+                    NODE,
+                    &lookup,
+                    WALK_SECS,
+                    2.5,
+                    |v| v > 0.5,
+                    "a duration above 0.5 s",
+                )?,
             },
             "replay" => Backend::Replay {
                 file: lookup(REPLAY_FILE).map(PathBuf::from).ok_or_else(|| {
@@ -173,7 +150,8 @@ impl Config {
                         "{NODE}: {REPLAY_SPEED}={other:?} is invalid: expected `realtime` or `fast`"
                     ),
                 },
-                looped: parse(&lookup, REPLAY_LOOP, true)?,
+                looped: env_value(NODE, &lookup, REPLAY_LOOP, |_| true, "true or false")?
+                    .unwrap_or(true),
             },
             "freenect2" => Backend::Freenect2,
             other => bail!(
@@ -185,42 +163,51 @@ impl Config {
             Some("all") => true,
             Some(other) => bail!("{NODE}: {JOINTS}={other:?} is invalid: expected `legs` or `all`"),
         };
-        let frame_rate_hz = finite(FRAME_RATE_HZ, parse(&lookup, FRAME_RATE_HZ, 30.0)?)?;
-        if !(1.0..=1000.0).contains(&frame_rate_hz) {
-            bail!("{NODE}: {FRAME_RATE_HZ}={frame_rate_hz} must be within 1–1000 Hz");
-        }
-        let phase: Option<f64> = match lookup(FRAME_PHASE_MILLIS) {
-            None => None,
-            Some(_) => Some(finite(
-                FRAME_PHASE_MILLIS,
-                parse(&lookup, FRAME_PHASE_MILLIS, 0.0)?,
-            )?),
-        };
-        let offset = finite(
-            CLOCK_OFFSET_MILLIS,
-            parse(&lookup, CLOCK_OFFSET_MILLIS, 0.0)?,
+        let frame_rate_hz = env_number_where(
+            NODE,
+            &lookup,
+            FRAME_RATE_HZ,
+            30.0,
+            |v| (1.0..=1000.0).contains(&v),
+            "a rate within 1–1000 Hz",
         )?;
-        let drift = finite(CLOCK_DRIFT_PPM, parse(&lookup, CLOCK_DRIFT_PPM, 0.0)?)?;
-        if drift.abs() > 500.0 {
-            bail!("{NODE}: {CLOCK_DRIFT_PPM}={drift} is beyond ±500 ppm");
-        }
-        let jitter = finite(
+        let phase = env_value(
+            NODE,
+            &lookup,
+            FRAME_PHASE_MILLIS,
+            |v: &f64| v.is_finite(),
+            "a finite number of milliseconds",
+        )?;
+        let offset = env_number(NODE, &lookup, CLOCK_OFFSET_MILLIS, 0.0)?;
+        let drift = env_number_where(
+            NODE,
+            &lookup,
+            CLOCK_DRIFT_PPM,
+            0.0,
+            |v| v.abs() <= 500.0,
+            "a drift within ±500 ppm",
+        )?;
+        let jitter = env_number_where(
+            NODE,
+            &lookup,
             CLOCK_JITTER_MICROS,
-            parse(&lookup, CLOCK_JITTER_MICROS, 20.0)?,
+            20.0,
+            |v| v >= 0.0,
+            "a number of microseconds ≥ 0",
         )?;
-        if jitter < 0.0 {
-            bail!("{NODE}: {CLOCK_JITTER_MICROS}={jitter} must be ≥ 0");
-        }
-        let stop_after_frames = match lookup(STOP_AFTER_FRAMES) {
-            None => None,
-            Some(_) => Some(parse(&lookup, STOP_AFTER_FRAMES, 0_u64)?),
-        };
+        let stop_after_frames = env_value(
+            NODE,
+            &lookup,
+            STOP_AFTER_FRAMES,
+            |_| true,
+            "a whole number of frames",
+        )?;
         Ok(Config {
             sensor_id,
             rig,
             backend,
             all_joints,
-            seed: parse(&lookup, SEED, 1_u64)?,
+            seed: env_value(NODE, &lookup, SEED, |_| true, "a whole number")?.unwrap_or(1),
             frame_rate_hz,
             frame_phase_nanos: phase.map(|ms| (ms * 1e6).round() as i64),
             clock_offset_nanos: (offset * 1e6).round() as i64,

@@ -33,6 +33,7 @@ use trigait_depth::io::{list_pngs, read_depth_png};
 use trigait_depth::lab::{LabTarget, lab_scene};
 use trigait_depth::sim::{SimParams, Simulator};
 use trigait_depth::{HEIGHT, WIDTH};
+use trigait_node_config::{env_number, env_number_where, env_value};
 use trigait_rig::Rig;
 use trigait_schema::{DepthFrameMessage, Message, ports};
 
@@ -92,21 +93,6 @@ pub struct DepthConfig {
     pub input: DepthInput,
 }
 
-fn number(lookup: &impl Fn(&str) -> Option<String>, key: &str, default: f64) -> eyre::Result<f64> {
-    let v = match lookup(key) {
-        None => default,
-        Some(raw) => raw
-            .trim()
-            .parse::<f64>()
-            .map_err(|e| eyre!("{NODE}: {key}={raw:?} is invalid: {e}"))?,
-    };
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        bail!("{NODE}: {key}={v} must be finite")
-    }
-}
-
 impl DepthConfig {
     /// `None` unless `DEPTH_RATE_HZ` is set.
     ///
@@ -116,29 +102,29 @@ impl DepthConfig {
         if lookup(DEPTH_RATE_HZ).is_none() {
             return Ok(None);
         }
-        let rate_hz = number(lookup, DEPTH_RATE_HZ, 30.0)?;
-        if !(0.1..=100.0).contains(&rate_hz) {
-            bail!("{NODE}: {DEPTH_RATE_HZ}={rate_hz} must be within 0.1–100 Hz");
-        }
+        let rate_hz = env_number_where(
+            NODE,
+            lookup,
+            DEPTH_RATE_HZ,
+            30.0,
+            |v| (0.1..=100.0).contains(&v),
+            "a rate within 0.1–100 Hz",
+        )?;
         let input = match lookup(DEPTH_DIR) {
             Some(dir) => DepthInput::Dir {
                 dir: PathBuf::from(dir.trim()),
-                looped: match lookup(DEPTH_LOOP) {
-                    None => true,
-                    Some(raw) => raw.trim().parse().map_err(|_| {
-                        eyre!("{NODE}: {DEPTH_LOOP}={raw:?} is invalid: expected true or false")
-                    })?,
-                },
+                looped: env_value(NODE, lookup, DEPTH_LOOP, |_| true, "true or false")?
+                    .unwrap_or(true),
             },
             None => {
                 let scene = lookup(DEPTH_SCENE).unwrap_or_else(|| "floor".into());
                 DepthInput::Sim {
                     target: LabTarget::from_spec(&scene)
                         .map_err(|e| eyre!("{NODE}: {DEPTH_SCENE}={scene:?} is invalid: {e}"))?,
-                    noise_sd_mm: number(lookup, DEPTH_NOISE_SD_MM, 1.2)?,
-                    quantisation_mm: number(lookup, DEPTH_QUANTISATION_MM, 1.0)?,
-                    ring_amplitude_mm: number(lookup, DEPTH_RING_MM, 0.0)?,
-                    ring_period_px: number(lookup, DEPTH_RING_PERIOD_PX, 40.0)?,
+                    noise_sd_mm: env_number(NODE, lookup, DEPTH_NOISE_SD_MM, 1.2)?,
+                    quantisation_mm: env_number(NODE, lookup, DEPTH_QUANTISATION_MM, 1.0)?,
+                    ring_amplitude_mm: env_number(NODE, lookup, DEPTH_RING_MM, 0.0)?,
+                    ring_period_px: env_number(NODE, lookup, DEPTH_RING_PERIOD_PX, 40.0)?,
                 }
             }
         };
@@ -351,16 +337,9 @@ pub fn send_due(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use trigait_node_testing::lookup;
 
-    fn lookup<'a>(pairs: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
-        move |k| {
-            pairs
-                .iter()
-                .find(|(key, _)| *key == k)
-                .map(|(_, v)| (*v).to_owned())
-        }
-    }
+    use super::*;
 
     fn config(pairs: &[(&str, &str)]) -> Config {
         let mut all = vec![("SENSOR_ID", "k1")];

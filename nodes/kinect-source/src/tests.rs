@@ -3,35 +3,18 @@
 //! ground truth without holes; replay reads both SDK formats; the event loop answers only the
 //! NTP requests addressed to it and skips malformed input.
 
-use std::collections::HashMap;
 use std::sync::Arc;
 
 use dora_node_api::arrow_v59::array::{ArrayRef, RecordBatch};
 use dora_node_api::arrow_v59::datatypes::{Field, Schema};
 use dora_node_api::arrow_v59::ipc::writer::FileWriter;
-use dora_node_api::integration_testing::{
-    TestingInput, TestingOptions, TestingOutput, drain_outputs, output_channel,
-};
-use dora_node_api::{DoraNode, serde_json};
+use dora_node_api::integration_testing::{TestingOptions, drain_outputs};
+use dora_node_api::serde_json;
+use trigait_node_testing::{chain, init_node, lookup};
 use trigait_schema::{Message, NtpExchange};
 
 use crate::backend::{Source, TRUTH_STEP_NANOS, next_on_grid};
 use crate::config::{Backend, Config};
-
-fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
-    let map: HashMap<String, String> = pairs
-        .iter()
-        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
-        .collect();
-    move |k| map.get(k).cloned()
-}
-
-fn chain(err: &eyre::Report) -> String {
-    err.chain()
-        .map(ToString::to_string)
-        .collect::<Vec<_>>()
-        .join(": ")
-}
 
 /// Only SENSOR_ID is required; the defaults are the thesis rig, the simulator and 30 Hz.
 #[test]
@@ -221,8 +204,8 @@ fn event_loop_answers_own_ntp_requests() {
         "other",
         NtpExchange::request("k3", 8, 1_000).encode().unwrap(),
     );
-    let input: dora_node_api::integration_testing::IntegrationTestInput =
-        serde_json::from_value(serde_json::json!({
+    let (node, events, mut rx) = init_node(
+        serde_json::json!({
             "id": "k1",
             "events": [
                 {"time_offset_secs": 0.05, "type": "Input", "id": "ntp_request", "path": mine, "column": "msg"},
@@ -230,17 +213,11 @@ fn event_loop_answers_own_ntp_requests() {
                 {"time_offset_secs": 0.07, "type": "Input", "id": "ntp_request", "data": [1, 2, 3]},
                 {"time_offset_secs": 0.30, "type": "Stop"}
             ]
-        }))
-        .unwrap();
-    let (tx, mut rx) = output_channel();
-    let (node, events) = DoraNode::init_testing(
-        TestingInput::Input(input),
-        TestingOutput::ToChannel(tx),
+        }),
         TestingOptions {
             skip_output_time_offsets: true,
         },
-    )
-    .unwrap();
+    );
     let c = Config::from_lookup(lookup(&[
         ("SENSOR_ID", "k1"),
         ("CLOCK_OFFSET_MILLIS", "20"),

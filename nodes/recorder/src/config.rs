@@ -14,6 +14,7 @@
 use std::path::PathBuf;
 
 use eyre::{bail, eyre};
+use trigait_node_config::env_value;
 use trigait_rig::Rig;
 
 /// Env var: output directory.
@@ -71,15 +72,14 @@ impl Config {
         let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
         let rig =
             Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
-        let ring_capacity = match lookup(RING_CAPACITY) {
-            None => 1000,
-            Some(raw) => match raw.trim().parse::<usize>() {
-                Ok(n) if n > 0 => n,
-                _ => {
-                    bail!("{NODE}: {RING_CAPACITY}={raw:?} is invalid: expected a positive integer")
-                }
-            },
-        };
+        let ring_capacity = env_value(
+            NODE,
+            &lookup,
+            RING_CAPACITY,
+            |n: &usize| *n > 0,
+            "a positive integer",
+        )?
+        .unwrap_or(1000);
         Ok(Config {
             out_dir,
             rrd,

@@ -3,34 +3,18 @@
 //! source gaps, and reports NTP error shares; the ring keeps 1000 positions per joint and
 //! exports them; an empty run still writes a valid summary and recording.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 
-use dora_node_api::integration_testing::{
-    IntegrationTestInput, TestingInput, TestingOptions, TestingOutput, output_channel,
-};
-use dora_node_api::{DoraNode, serde_json};
+use dora_node_api::integration_testing::TestingOptions;
+use dora_node_api::serde_json;
 use nalgebra::{Matrix3, Point3};
+use trigait_node_testing::{chain, init_node, lookup};
 use trigait_schema::{FrameTiming, FusedJoint, FusedPose};
 use trigait_skeleton::{Joint, JointSample, SkeletonFrame, TrackingState};
 
 use crate::config::Config;
 use crate::export::Ring;
 use crate::stats::{Percentiles, Stats};
-
-fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
-    let map: HashMap<String, String> = pairs
-        .iter()
-        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
-        .collect();
-    move |k| map.get(k).cloned()
-}
-
-fn chain(err: &eyre::Report) -> String {
-    err.chain()
-        .map(ToString::to_string)
-        .collect::<Vec<_>>()
-        .join(": ")
-}
 
 /// Defaults: `out/trigait.rrd`, no viewer, thesis rig, 1000 positions.
 #[test]
@@ -220,21 +204,16 @@ fn ring_and_exports() {
 #[test]
 fn empty_run_writes_outputs() {
     let dir = std::env::temp_dir().join(format!("trigait-recorder-test-{}", std::process::id()));
-    let input: IntegrationTestInput = serde_json::from_value(serde_json::json!({
-        "id": "recorder",
-        "events": [
-            {"time_offset_secs": 0.0, "type": "Input", "id": "fused_pose", "data": [1]},
-            {"time_offset_secs": 0.01, "type": "Stop"}
-        ]
-    }))
-    .unwrap();
-    let (tx, _rx) = output_channel();
-    let (node, events) = DoraNode::init_testing(
-        TestingInput::Input(input),
-        TestingOutput::ToChannel(tx),
+    let (node, events, _rx) = init_node(
+        serde_json::json!({
+            "id": "recorder",
+            "events": [
+                {"time_offset_secs": 0.0, "type": "Input", "id": "fused_pose", "data": [1]},
+                {"time_offset_secs": 0.01, "type": "Stop"}
+            ]
+        }),
         TestingOptions::default(),
-    )
-    .unwrap();
+    );
     let out = dir.to_str().unwrap().to_owned();
     let config = Config::from_lookup(lookup(&[("OUTPUT_DIR", &out)])).unwrap();
     let summary = crate::run(config, node, events).unwrap();

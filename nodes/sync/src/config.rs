@@ -13,6 +13,7 @@
 //! Inputs: `frame_<id>` and `ntp_<id>` per source, `tick` (a `dora/timer/millis/N` timer, ≤ 20 ms).
 
 use eyre::{bail, eyre};
+use trigait_node_config::{env_number_where, env_value};
 use trigait_sync::{Interpolation, Policy, SyncParams};
 
 /// Env var: policy.
@@ -43,17 +44,16 @@ pub struct Config {
     pub sensors: Option<Vec<String>>,
 }
 
+/// `key` in milliseconds (positive), as nanoseconds.
 fn millis(lookup: &impl Fn(&str) -> Option<String>, key: &str, default: f64) -> eyre::Result<i64> {
-    let v = match lookup(key) {
-        None => default,
-        Some(raw) => raw
-            .trim()
-            .parse::<f64>()
-            .map_err(|e| eyre!("{NODE}: {key}={raw:?} is invalid: {e}"))?,
-    };
-    if !(v.is_finite() && v > 0.0) {
-        bail!("{NODE}: {key}={v} must be a positive number of milliseconds");
-    }
+    let v = env_number_where(
+        NODE,
+        lookup,
+        key,
+        default,
+        |v| v > 0.0,
+        "a positive number of milliseconds",
+    )?;
     Ok((v * 1e6).round() as i64)
 }
 
@@ -78,11 +78,7 @@ impl Config {
                 .map_err(|e| eyre!("{NODE}: {INTERPOLATION}={raw:?} is invalid: {e}"))?;
             params = params.with_interpolation(i);
         }
-        if let Some(raw) = lookup(FUSION_RATE_HZ) {
-            let hz: f64 = raw
-                .trim()
-                .parse()
-                .map_err(|e| eyre!("{NODE}: {FUSION_RATE_HZ}={raw:?} is invalid: {e}"))?;
+        if let Some(hz) = env_value(NODE, &lookup, FUSION_RATE_HZ, |_| true, "a rate in Hz")? {
             params = params.with_fusion_rate_hz(hz);
         }
         params = params

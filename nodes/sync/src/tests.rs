@@ -1,31 +1,12 @@
 //! `sync` contracts: the policy and its knobs come from YAML with errors naming node, key and
 //! value; the sensor set comes from the graph's inputs; bad input is counted, never fatal.
 
-use std::collections::HashMap;
-
-use dora_node_api::integration_testing::{
-    IntegrationTestInput, TestingInput, TestingOptions, TestingOutput, drain_outputs,
-    output_channel,
-};
-use dora_node_api::{DoraNode, serde_json};
+use dora_node_api::integration_testing::{TestingOptions, drain_outputs};
+use dora_node_api::serde_json;
+use trigait_node_testing::{chain, init_node, lookup};
 use trigait_sync::Policy;
 
 use crate::config::Config;
-
-fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
-    let map: HashMap<String, String> = pairs
-        .iter()
-        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
-        .collect();
-    move |k| map.get(k).cloned()
-}
-
-fn chain(err: &eyre::Report) -> String {
-    err.chain()
-        .map(ToString::to_string)
-        .collect::<Vec<_>>()
-        .join(": ")
-}
 
 /// Defaults: interpolate at 30 Hz, 100 ms deadline, NTP every 100 ms, sensors from inputs.
 #[test]
@@ -96,25 +77,20 @@ fn sensors_from_the_graph() {
 /// and a frame arriving on another sensor's input, are counted and skipped.
 #[test]
 fn ticks_request_ntp_and_bad_input_is_skipped() {
-    let input: IntegrationTestInput = serde_json::from_value(serde_json::json!({
-        "id": "sync",
-        "events": [
-            {"time_offset_secs": 0.00, "type": "Input", "id": "tick", "data": 0},
-            {"time_offset_secs": 0.01, "type": "Input", "id": "frame_k1", "data": [1, 2]},
-            {"time_offset_secs": 0.02, "type": "Input", "id": "ntp_k2", "data": "garbage"},
-            {"time_offset_secs": 0.03, "type": "Input", "id": "tick", "data": 0},
-            {"time_offset_secs": 0.15, "type": "Input", "id": "tick", "data": 0},
-            {"time_offset_secs": 0.20, "type": "Stop"}
-        ]
-    }))
-    .unwrap();
-    let (tx, mut rx) = output_channel();
-    let (node, events) = DoraNode::init_testing(
-        TestingInput::Input(input),
-        TestingOutput::ToChannel(tx),
+    let (node, events, mut rx) = init_node(
+        serde_json::json!({
+            "id": "sync",
+            "events": [
+                {"time_offset_secs": 0.00, "type": "Input", "id": "tick", "data": 0},
+                {"time_offset_secs": 0.01, "type": "Input", "id": "frame_k1", "data": [1, 2]},
+                {"time_offset_secs": 0.02, "type": "Input", "id": "ntp_k2", "data": "garbage"},
+                {"time_offset_secs": 0.03, "type": "Input", "id": "tick", "data": 0},
+                {"time_offset_secs": 0.15, "type": "Input", "id": "tick", "data": 0},
+                {"time_offset_secs": 0.20, "type": "Stop"}
+            ]
+        }),
         TestingOptions::default(),
-    )
-    .unwrap();
+    );
     let config = Config::from_lookup(lookup(&[])).unwrap();
     let counters = crate::run(
         config,

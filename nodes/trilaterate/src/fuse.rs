@@ -1,14 +1,15 @@
-//! One aligned set → one fused pose: per joint, one [`Observation`] per sensor that saw it
-//! (weighted by the Kinect noise model at the reported position, as `trigait eval` does), then
-//! the configured estimator.
+//! One aligned set → one fused pose: per joint, one observation per sensor that saw it
+//! ([`trigait_sim::observation`]: weighted by the Kinect noise model at the reported position,
+//! the same code `trigait eval` runs), then the configured estimator.
 
 use std::collections::{BTreeMap, BTreeSet};
 
 use trigait_kinect::Sensor;
 use trigait_schema::{FusedJoint, FusedPose};
+use trigait_sim::observation;
 use trigait_skeleton::Joint;
 use trigait_sync::AlignedSet;
-use trigait_trilateration::{Error as EstimateError, Observation, Params, estimate};
+use trigait_trilateration::{Error as EstimateError, Params, estimate};
 
 /// The rig's sensors by id.
 #[derive(Debug, Clone)]
@@ -69,20 +70,17 @@ impl Fuser {
                 ) else {
                     continue;
                 };
-                let p = sample.position_in_kinect;
-                // The limb axis (for the depth noise's incidence term) from the same sensor's
-                // reported neighbouring joints.
-                let limb = trigait_kinect::limb_axis(joint, |j| {
+                // The position and the limb axis (for the depth noise's incidence term) come
+                // from the same sensor's reported joints.
+                let Some(o) = observation(sensor, joint, sample.state, |j| {
                     view.joints
                         .iter()
                         .find(|s| s.joint == j)
                         .map(|s| s.position_in_kinect)
-                });
-                observations.push(Observation::new(
-                    sensor.world_from_kinect,
-                    p,
-                    sensor.covariance_in_kinect(joint, &p, sample.state, limb),
-                ));
+                }) else {
+                    continue;
+                };
+                observations.push(o);
                 ids.push(id.clone());
             }
             match estimate(&observations, &self.params) {

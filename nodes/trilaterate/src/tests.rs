@@ -2,14 +2,12 @@
 //! value; a set is fused with the rig's noise model and a joint too few sensors saw is listed
 //! as skipped with the reason; malformed sets are counted, never fatal.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 
-use dora_node_api::integration_testing::{
-    IntegrationTestInput, TestingInput, TestingOptions, TestingOutput, drain_outputs,
-    output_channel,
-};
-use dora_node_api::{DoraNode, serde_json};
+use dora_node_api::integration_testing::{TestingOptions, drain_outputs};
+use dora_node_api::serde_json;
 use nalgebra::Point3;
+use trigait_node_testing::{chain, init_node, lookup};
 use trigait_rig::Rig;
 use trigait_skeleton::{Joint, JointSample, TrackingState};
 use trigait_sync::{AlignedSet, Policy, SensorView};
@@ -17,21 +15,6 @@ use trigait_trilateration::Method;
 
 use crate::config::Config;
 use crate::fuse::Fuser;
-
-fn lookup(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
-    let map: HashMap<String, String> = pairs
-        .iter()
-        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
-        .collect();
-    move |k| map.get(k).cloned()
-}
-
-fn chain(err: &eyre::Report) -> String {
-    err.chain()
-        .map(ToString::to_string)
-        .collect::<Vec<_>>()
-        .join(": ")
-}
 
 /// Defaults to fusion on the thesis rig; `ROBUST` wraps it.
 #[test]
@@ -171,21 +154,16 @@ fn unknown_sensor_is_left_out() {
 /// A malformed aligned set is counted and skipped; nothing is sent for it.
 #[test]
 fn malformed_set_is_skipped() {
-    let input: IntegrationTestInput = serde_json::from_value(serde_json::json!({
-        "id": "trilaterate",
-        "events": [
-            {"time_offset_secs": 0.0, "type": "Input", "id": "aligned_set", "data": [1, 2, 3]},
-            {"time_offset_secs": 0.01, "type": "Stop"}
-        ]
-    }))
-    .unwrap();
-    let (tx, mut rx) = output_channel();
-    let (node, events) = DoraNode::init_testing(
-        TestingInput::Input(input),
-        TestingOutput::ToChannel(tx),
+    let (node, events, mut rx) = init_node(
+        serde_json::json!({
+            "id": "trilaterate",
+            "events": [
+                {"time_offset_secs": 0.0, "type": "Input", "id": "aligned_set", "data": [1, 2, 3]},
+                {"time_offset_secs": 0.01, "type": "Stop"}
+            ]
+        }),
         TestingOptions::default(),
-    )
-    .unwrap();
+    );
     let counters = crate::run(Config::from_lookup(lookup(&[])).unwrap(), node, events).unwrap();
     assert_eq!(counters.malformed, 1);
     assert_eq!(counters.poses_sent, 0);

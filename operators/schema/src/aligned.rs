@@ -14,17 +14,16 @@
 //! ```
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
 use arrow_array::types::{Float64Type, Int64Type, UInt64Type};
-use arrow_array::{Array, ArrayRef, Float64Array, Int64Array, UInt8Array, UInt64Array};
+use arrow_array::{Array, ArrayRef, Float64Array, Int64Array, StringArray, UInt64Array};
 use arrow_schema::{DataType, Fields};
 use trigait_skeleton::JointSample;
 use trigait_sync::{AlignedSet, Policy, SensorView};
 
 use crate::codec::{
-    Builder, Col, column, decode_joint_samples, f64_tuple, field, joint_code, list_of, list_range,
-    no_null_rows, nullable, optional, point_values, state_code, string, struct_of, value,
+    Builder, Rows, decode_joint_samples, encode_joint_samples, f64_tuple, field, list_of,
+    list_range, nullable, struct_of,
 };
 use crate::{Error, Message, Result};
 
@@ -84,44 +83,29 @@ impl Message for AlignedSet {
             }
         }
         let samples = views.iter().flat_map(|(_, v)| v.joints.iter());
-        let joints = b.structs(
-            &joint_fields(),
-            vec![
-                Arc::new(UInt8Array::from_iter_values(
-                    samples.clone().map(|s| joint_code(s.joint)),
-                )),
-                b.f64_tuples(
-                    3,
-                    point_values(samples.clone().map(|s| s.position_in_kinect)),
-                )?,
-                Arc::new(UInt8Array::from_iter_values(
-                    samples.map(|s| state_code(s.state)),
-                )),
-                Arc::new(Float64Array::from_iter(
-                    views
-                        .iter()
-                        .flat_map(|(_, v)| v.interpolation_error_m.iter().copied()),
-                )),
-            ],
-        )?;
+        let mut columns = encode_joint_samples(&b, samples)?;
+        columns.push(
+            b.optionals::<Float64Type>(
+                views
+                    .iter()
+                    .flat_map(|(_, v)| v.interpolation_error_m.iter().copied()),
+            ),
+        );
+        let joints = b.structs(&joint_fields(), columns)?;
         let joint_lengths: Vec<usize> = views.iter().map(|(_, v)| v.joints.len()).collect();
         let seq_lengths: Vec<usize> = views.iter().map(|(_, v)| v.frame_seqs.len()).collect();
         let sensors = b.structs(
             &sensor_fields(),
             vec![
                 b.strings(views.iter().map(|(id, _)| id.as_str())),
-                Arc::new(Int64Array::from_iter_values(
-                    views.iter().map(|(_, v)| v.skew_nanos),
-                )),
-                Arc::new(Int64Array::from_iter_values(
-                    views.iter().map(|(_, v)| v.time_uncertainty_nanos),
-                )),
+                b.values::<Int64Type>(views.iter().map(|(_, v)| v.skew_nanos)),
+                b.values::<Int64Type>(views.iter().map(|(_, v)| v.time_uncertainty_nanos)),
                 b.list(
                     DataType::UInt64,
                     &seq_lengths,
-                    Arc::new(UInt64Array::from_iter_values(
+                    b.values::<UInt64Type>(
                         views.iter().flat_map(|(_, v)| v.frame_seqs.iter().copied()),
-                    )),
+                    ),
                 )?,
                 b.list(struct_of(joint_fields()), &joint_lengths, joints)?,
             ],
@@ -131,16 +115,10 @@ impl Message for AlignedSet {
         b.structs(
             &fields(),
             vec![
-                Arc::new(UInt64Array::from_iter_values(
-                    messages.iter().map(|m| m.seq),
-                )),
-                Arc::new(Int64Array::from_iter_values(
-                    messages.iter().map(|m| m.stamp_nanos),
-                )),
+                b.values::<UInt64Type>(messages.iter().map(|m| m.seq)),
+                b.values::<Int64Type>(messages.iter().map(|m| m.stamp_nanos)),
                 b.strings(messages.iter().map(|m| m.policy.name())),
-                Arc::new(Int64Array::from_iter_values(
-                    messages.iter().map(|m| m.time_uncertainty_nanos),
-                )),
+                b.values::<Int64Type>(messages.iter().map(|m| m.time_uncertainty_nanos)),
                 b.list(
                     DataType::Utf8,
                     &missing_lengths,
@@ -156,36 +134,25 @@ impl Message for AlignedSet {
     }
 
     fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        let name = Self::NAME;
-        let top = Col::new(array, name).structs()?;
-        no_null_rows(top, name)?;
-        let (c, seq_path) = column(top, name, "seq")?;
-        let seqs = Col::new(c, &seq_path).primitive::<UInt64Type>()?;
-        let (c, stamp_path) = column(top, name, "stamp_nanos")?;
-        let stamps = Col::new(c, &stamp_path).primitive::<Int64Type>()?;
-        let (c, policy_path) = column(top, name, "policy")?;
-        let policies = Col::new(c, &policy_path).strings()?;
-        let (c, unc_path) = column(top, name, "time_uncertainty_nanos")?;
-        let uncertainties = Col::new(c, &unc_path).primitive::<Int64Type>()?;
-        let (c, missing_path) = column(top, name, "missing")?;
-        let missing_list = Col::new(c, &missing_path).list()?;
-        let missing_values = Col::new(missing_list.values().as_ref(), &missing_path).strings()?;
-        let (c, sensors_path) = column(top, name, "sensors")?;
-        let sensors_list = Col::new(c, &sensors_path).list()?;
+        let top = Rows::new(array, Self::NAME)?;
+        let seqs = top.column::<UInt64Array>("seq")?;
+        let stamps = top.column::<Int64Array>("stamp_nanos")?;
+        let policies = top.column::<StringArray>("policy")?;
+        let uncertainties = top.column::<Int64Array>("time_uncertainty_nanos")?;
+        let missing_lists = top.list::<StringArray>("missing")?;
+        let (sensors_list, sensors_path) = top.nested("sensors")?;
         let views = decode_sensors(sensors_list.values().as_ref(), &sensors_path)?;
 
-        let mut out = Vec::with_capacity(top.len());
-        for row in 0..top.len() {
-            let policy_name = string(policies, &policy_path, row)?;
+        let mut out = Vec::with_capacity(top.array.len());
+        for row in top.rows() {
+            let policy_name = policies.get(row)?;
             let policy: Policy = policy_name.parse().map_err(|_| Error::InvalidValue {
-                field: policy_path.clone(),
+                field: policies.path.clone(),
                 row,
                 value: policy_name.clone(),
                 expected: "a sync policy: slots or interpolate",
             })?;
-            let missing = list_range(missing_list, &missing_path, row)?
-                .map(|i| string(missing_values, &missing_path, i))
-                .collect::<Result<Vec<String>>>()?;
+            let missing = missing_lists.get(row)?;
             let range = list_range(sensors_list, &sensors_path, row)?;
             let sensors: BTreeMap<String, SensorView> = views
                 .get(range.clone())
@@ -206,12 +173,12 @@ impl Message for AlignedSet {
                 });
             }
             out.push(AlignedSet {
-                seq: value(seqs, &seq_path, row)?,
-                stamp_nanos: value(stamps, &stamp_path, row)?,
+                seq: seqs.get(row)?,
+                stamp_nanos: stamps.get(row)?,
                 policy,
                 sensors,
                 missing,
-                time_uncertainty_nanos: value(uncertainties, &unc_path, row)?,
+                time_uncertainty_nanos: uncertainties.get(row)?,
             });
         }
         Ok(out)
@@ -219,26 +186,18 @@ impl Message for AlignedSet {
 }
 
 fn decode_sensors(array: &dyn Array, path: &str) -> Result<Vec<(String, SensorView)>> {
-    let items = Col::new(array, path).structs()?;
-    no_null_rows(items, path)?;
-    let (c, id_path) = column(items, path, "sensor_id")?;
-    let ids = Col::new(c, &id_path).strings()?;
-    let (c, skew_path) = column(items, path, "skew_nanos")?;
-    let skews = Col::new(c, &skew_path).primitive::<Int64Type>()?;
-    let (c, unc_path) = column(items, path, "time_uncertainty_nanos")?;
-    let uncertainties = Col::new(c, &unc_path).primitive::<Int64Type>()?;
-    let (c, seqs_path) = column(items, path, "frame_seqs")?;
-    let seqs_list = Col::new(c, &seqs_path).list()?;
-    let seq_values = Col::new(seqs_list.values().as_ref(), &seqs_path).primitive::<UInt64Type>()?;
-    let (c, joints_path) = column(items, path, "joints")?;
-    let joints_list = Col::new(c, &joints_path).list()?;
+    let items = Rows::new(array, path)?;
+    let ids = items.column::<StringArray>("sensor_id")?;
+    let skews = items.column::<Int64Array>("skew_nanos")?;
+    let uncertainties = items.column::<Int64Array>("time_uncertainty_nanos")?;
+    let seq_lists = items.list::<UInt64Array>("frame_seqs")?;
+    let (joints_list, joints_path) = items.nested("joints")?;
     let (samples, errors) = decode_joints(joints_list.values().as_ref(), &joints_path)?;
 
-    (0..items.len())
+    items
+        .rows()
         .map(|row| {
-            let frame_seqs = list_range(seqs_list, &seqs_path, row)?
-                .map(|i| value(seq_values, &seqs_path, i))
-                .collect::<Result<Vec<u64>>>()?;
+            let frame_seqs = seq_lists.get(row)?;
             let range = list_range(joints_list, &joints_path, row)?;
             let bad = || Error::BadLength {
                 field: joints_path.clone(),
@@ -246,13 +205,13 @@ fn decode_sensors(array: &dyn Array, path: &str) -> Result<Vec<(String, SensorVi
                 found: samples.len(),
             };
             Ok((
-                string(ids, &id_path, row)?,
+                ids.get(row)?,
                 SensorView {
                     joints: samples.get(range.clone()).ok_or_else(bad)?.to_vec(),
                     interpolation_error_m: errors.get(range.clone()).ok_or_else(bad)?.to_vec(),
                     frame_seqs,
-                    skew_nanos: value(skews, &skew_path, row)?,
-                    time_uncertainty_nanos: value(uncertainties, &unc_path, row)?,
+                    skew_nanos: skews.get(row)?,
+                    time_uncertainty_nanos: uncertainties.get(row)?,
                 },
             ))
         })
@@ -261,8 +220,7 @@ fn decode_sensors(array: &dyn Array, path: &str) -> Result<Vec<(String, SensorVi
 
 fn decode_joints(array: &dyn Array, path: &str) -> Result<(Vec<JointSample>, Vec<Option<f64>>)> {
     let (items, samples) = decode_joint_samples(array, path)?;
-    let (c, extra_path) = column(items, path, "interpolation_error_m")?;
-    let extra = Col::new(c, &extra_path).primitive::<Float64Type>()?;
-    let errors = (0..items.len()).map(|row| optional(extra, row)).collect();
+    let extra = items.column::<Float64Array>("interpolation_error_m")?;
+    let errors = items.rows().map(|row| extra.optional(row)).collect();
     Ok((samples, errors))
 }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use arrow_array::types::{ArrowPrimitiveType, Float64Type, UInt8Type};
 use arrow_array::{
     Array, ArrayRef, FixedSizeListArray, Float64Array, ListArray, PrimitiveArray, StringArray,
-    StructArray,
+    StructArray, UInt8Array,
 };
 use arrow_buffer::OffsetBuffer;
 use arrow_schema::{DataType, Field, FieldRef, Fields};
@@ -98,6 +98,22 @@ impl Builder {
         )
         .map(|a| Arc::new(a) as ArrayRef)
         .map_err(|e| self.err(e))
+    }
+
+    /// A non-null primitive column (`b.values::<UInt64Type>(messages.iter().map(|m| m.seq))`).
+    pub fn values<T: ArrowPrimitiveType>(
+        &self,
+        values: impl IntoIterator<Item = T::Native>,
+    ) -> ArrayRef {
+        Arc::new(PrimitiveArray::<T>::from_iter_values(values))
+    }
+
+    /// A nullable primitive column, `None` as null.
+    pub fn optionals<T: ArrowPrimitiveType>(
+        &self,
+        values: impl IntoIterator<Item = Option<T::Native>>,
+    ) -> ArrayRef {
+        Arc::new(values.into_iter().collect::<PrimitiveArray<T>>())
     }
 
     pub fn strings<'a>(&self, values: impl IntoIterator<Item = &'a str>) -> ArrayRef {
@@ -259,42 +275,6 @@ pub(crate) fn column<'a>(
     }
 }
 
-/// Non-null value of a primitive column.
-pub(crate) fn value<T: ArrowPrimitiveType>(
-    array: &PrimitiveArray<T>,
-    path: &str,
-    row: usize,
-) -> Result<T::Native> {
-    if array.is_null(row) {
-        Err(Error::NullValue {
-            field: path.to_owned(),
-            row,
-        })
-    } else {
-        Ok(array.value(row))
-    }
-}
-
-/// Possibly-null value of a primitive column.
-pub(crate) fn optional<T: ArrowPrimitiveType>(
-    array: &PrimitiveArray<T>,
-    row: usize,
-) -> Option<T::Native> {
-    (!array.is_null(row)).then(|| array.value(row))
-}
-
-/// Non-null value of a string column.
-pub(crate) fn string(array: &StringArray, path: &str, row: usize) -> Result<String> {
-    if array.is_null(row) {
-        Err(Error::NullValue {
-            field: path.to_owned(),
-            row,
-        })
-    } else {
-        Ok(array.value(row).to_owned())
-    }
-}
-
 /// The item range of list row `row` (no null rows allowed).
 pub(crate) fn list_range(
     list: &ListArray,
@@ -353,34 +333,205 @@ pub(crate) fn no_null_rows(array: &StructArray, path: &str) -> Result<()> {
     }
 }
 
+// ---- reading by field name ---------------------------------------------------------------
+//
+// A message's decoder names each column once (`top.column::<UInt64Array>("seq")?`) and reads
+// rows from the typed getter it gets back (`seq.get(row)?`); every error names the field's
+// dotted path, as the hand-written `column` + `Col` + `value` sequence did.
+
+/// An Arrow array type a column is read from, and the Rust value of one of its cells.
+pub(crate) trait Cells: Array + Sized + 'static {
+    /// One cell, owned.
+    type Value;
+    /// `col` as this array type, or [`Error::WrongType`].
+    fn of<'a>(col: &Col<'a, '_>) -> Result<&'a Self>;
+    /// The value at `row`, which is not null.
+    fn cell(&self, row: usize) -> Self::Value;
+}
+
+impl<T: ArrowPrimitiveType> Cells for PrimitiveArray<T> {
+    type Value = T::Native;
+    fn of<'a>(col: &Col<'a, '_>) -> Result<&'a Self> {
+        col.primitive::<T>()
+    }
+    fn cell(&self, row: usize) -> T::Native {
+        self.value(row)
+    }
+}
+
+impl Cells for StringArray {
+    type Value = String;
+    fn of<'a>(col: &Col<'a, '_>) -> Result<&'a Self> {
+        col.strings()
+    }
+    fn cell(&self, row: usize) -> String {
+        self.value(row).to_owned()
+    }
+}
+
+/// The rows of a struct array (a message batch, or the items of a list of structs) with no
+/// null rows; its columns are fetched by name as typed getters carrying their paths.
+pub(crate) struct Rows<'a> {
+    pub array: &'a StructArray,
+    pub path: String,
+}
+
+impl<'a> Rows<'a> {
+    /// `array` as the struct at `path`: [`Error::WrongType`] if it is not one,
+    /// [`Error::NullValue`] if a row is null.
+    pub fn new(array: &'a dyn Array, path: &str) -> Result<Self> {
+        let array = Col::new(array, path).structs()?;
+        no_null_rows(array, path)?;
+        Ok(Rows {
+            array,
+            path: path.to_owned(),
+        })
+    }
+
+    /// The row indices.
+    pub fn rows(&self) -> std::ops::Range<usize> {
+        0..self.array.len()
+    }
+
+    /// The column `name` read as `A`.
+    pub fn column<A: Cells>(&self, name: &str) -> Result<Column<'a, A>> {
+        let (c, path) = column(self.array, &self.path, name)?;
+        let array = A::of(&Col::new(c, &path))?;
+        Ok(Column { array, path })
+    }
+
+    /// The `List<A>` column `name`; its items are reported under the list's path.
+    pub fn list<A: Cells>(&self, name: &str) -> Result<Lists<'a, A>> {
+        let (list, path) = self.nested(name)?;
+        let items = A::of(&Col::new(list.values().as_ref(), &path))?;
+        Ok(Lists {
+            list,
+            items: Column { array: items, path },
+        })
+    }
+
+    /// The `List<Struct>` column `name` and its path, for a decoder of the items.
+    pub fn nested(&self, name: &str) -> Result<(&'a ListArray, String)> {
+        let (c, path) = column(self.array, &self.path, name)?;
+        let list = Col::new(c, &path).list()?;
+        Ok((list, path))
+    }
+
+    /// The `FixedSizeList<Float64, size>` column `name`.
+    pub fn tuples(&self, name: &str, size: usize) -> Result<Tuples> {
+        let (c, path) = column(self.array, &self.path, name)?;
+        let values = Col::new(c, &path).f64_tuples(i32::try_from(size).unwrap_or(i32::MAX))?;
+        Ok(Tuples {
+            values,
+            size,
+            rows: self.array.len(),
+            path,
+        })
+    }
+}
+
+/// One column of [`Rows`], read cell by cell.
+pub(crate) struct Column<'a, A> {
+    pub array: &'a A,
+    pub path: String,
+}
+
+impl<A: Cells> Column<'_, A> {
+    /// The value at `row`; null is [`Error::NullValue`].
+    pub fn get(&self, row: usize) -> Result<A::Value> {
+        if self.array.is_null(row) {
+            Err(Error::NullValue {
+                field: self.path.clone(),
+                row,
+            })
+        } else {
+            Ok(self.array.cell(row))
+        }
+    }
+
+    /// The value at `row`, `None` if null.
+    pub fn optional(&self, row: usize) -> Option<A::Value> {
+        (!self.array.is_null(row)).then(|| self.array.cell(row))
+    }
+}
+
+/// A `List<A>` column of [`Rows`], read a row's items at a time.
+pub(crate) struct Lists<'a, A> {
+    list: &'a ListArray,
+    items: Column<'a, A>,
+}
+
+impl<A: Cells> Lists<'_, A> {
+    /// The items of row `row`, none of them null.
+    pub fn get(&self, row: usize) -> Result<Vec<A::Value>> {
+        list_range(self.list, &self.items.path, row)?
+            .map(|i| self.items.get(i))
+            .collect()
+    }
+}
+
+/// A `FixedSizeList<Float64, size>` column of [`Rows`].
+pub(crate) struct Tuples {
+    values: Vec<f64>,
+    size: usize,
+    rows: usize,
+    pub path: String,
+}
+
+impl Tuples {
+    /// The `size` values of row `row`.
+    pub fn get(&self, row: usize) -> Result<&[f64]> {
+        self.values
+            .get(self.size * row..self.size * (row + 1))
+            .ok_or_else(|| Error::BadLength {
+                field: self.path.clone(),
+                expected: self.size * self.rows,
+                found: self.values.len(),
+            })
+    }
+
+    /// Row `row` as a point (a column of size 3).
+    pub fn point(&self, row: usize) -> Result<Point3<f64>> {
+        let p = self.get(row)?;
+        Ok(Point3::new(p[0], p[1], p[2]))
+    }
+}
+
+/// The `joint`, `position_m` and `state` columns that every joint list on the wire shares,
+/// for a message to append its own extra columns to ([`decode_joint_samples`] reads them).
+pub(crate) fn encode_joint_samples<'s>(
+    b: &Builder,
+    samples: impl Iterator<Item = &'s JointSample> + Clone,
+) -> Result<Vec<ArrayRef>> {
+    Ok(vec![
+        b.values::<UInt8Type>(samples.clone().map(|s| joint_code(s.joint))),
+        b.f64_tuples(
+            3,
+            point_values(samples.clone().map(|s| s.position_in_kinect)),
+        )?,
+        b.values::<UInt8Type>(samples.map(|s| state_code(s.state))),
+    ])
+}
+
 /// Decodes the `joint`, `position_m` and `state` columns that every joint list on the wire
 /// shares, returning the struct array too so a message reads its own extra columns from it.
 pub(crate) fn decode_joint_samples<'a>(
     array: &'a dyn Array,
     path: &str,
-) -> Result<(&'a StructArray, Vec<JointSample>)> {
-    let items = Col::new(array, path).structs()?;
-    no_null_rows(items, path)?;
-    let (c, joint_path) = column(items, path, "joint")?;
-    let joints = Col::new(c, &joint_path).primitive::<UInt8Type>()?;
-    let (c, pos_path) = column(items, path, "position_m")?;
-    let positions = Col::new(c, &pos_path).f64_tuples(3)?;
-    let (c, state_path) = column(items, path, "state")?;
-    let states = Col::new(c, &state_path).primitive::<UInt8Type>()?;
-    let mut samples = Vec::with_capacity(items.len());
-    for row in 0..items.len() {
-        let p = positions
-            .get(3 * row..3 * row + 3)
-            .ok_or_else(|| Error::BadLength {
-                field: pos_path.clone(),
-                expected: 3 * items.len(),
-                found: positions.len(),
-            })?;
-        samples.push(JointSample {
-            joint: joint_from_code(value(joints, &joint_path, row)?, &joint_path, row)?,
-            position_in_kinect: Point3::new(p[0], p[1], p[2]),
-            state: state_from_code(value(states, &state_path, row)?, &state_path, row)?,
-        });
-    }
+) -> Result<(Rows<'a>, Vec<JointSample>)> {
+    let items = Rows::new(array, path)?;
+    let joints = items.column::<UInt8Array>("joint")?;
+    let positions = items.tuples("position_m", 3)?;
+    let states = items.column::<UInt8Array>("state")?;
+    let samples = items
+        .rows()
+        .map(|row| {
+            Ok(JointSample {
+                joint: joint_from_code(joints.get(row)?, &joints.path, row)?,
+                position_in_kinect: positions.point(row)?,
+                state: state_from_code(states.get(row)?, &states.path, row)?,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
     Ok((items, samples))
 }

@@ -14,13 +14,13 @@
 
 use std::sync::Arc;
 
-use arrow_array::types::{Int64Type, UInt32Type, UInt64Type};
-use arrow_array::{Array, ArrayRef, Int64Array, UInt16Array, UInt32Array, UInt64Array};
+use arrow_array::types::{Int64Type, UInt16Type, UInt32Type, UInt64Type};
+use arrow_array::{
+    Array, ArrayRef, Int64Array, StringArray, UInt16Array, UInt32Array, UInt64Array,
+};
 use arrow_schema::{DataType, Fields};
 
-use crate::codec::{
-    Builder, Col, column, field, list_of, list_range, no_null_rows, string, struct_of, value,
-};
+use crate::codec::{Builder, Col, Rows, field, list_of, list_range, struct_of};
 use crate::{Error, Message, Result};
 
 /// One depth image of one sensor.
@@ -99,42 +99,27 @@ impl Message for DepthFrameMessage {
             &fields(),
             vec![
                 b.strings(messages.iter().map(|m| m.sensor_id.as_str())),
-                Arc::new(UInt64Array::from_iter_values(
-                    messages.iter().map(|m| m.seq),
-                )),
-                Arc::new(Int64Array::from_iter_values(
-                    messages.iter().map(|m| m.local_stamp_nanos),
-                )),
-                Arc::new(UInt32Array::from_iter_values(
-                    messages.iter().map(|m| m.width),
-                )),
-                Arc::new(UInt32Array::from_iter_values(
-                    messages.iter().map(|m| m.height),
-                )),
+                b.values::<UInt64Type>(messages.iter().map(|m| m.seq)),
+                b.values::<Int64Type>(messages.iter().map(|m| m.local_stamp_nanos)),
+                b.values::<UInt32Type>(messages.iter().map(|m| m.width)),
+                b.values::<UInt32Type>(messages.iter().map(|m| m.height)),
                 b.list(DataType::UInt16, &lengths, pixels)?,
             ],
         )
     }
 
     fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        let top = Col::new(array, Self::NAME).structs()?;
-        no_null_rows(top, Self::NAME)?;
-        let (c, sensor_path) = column(top, Self::NAME, "sensor_id")?;
-        let sensors = Col::new(c, &sensor_path).strings()?;
-        let (c, seq_path) = column(top, Self::NAME, "seq")?;
-        let seqs = Col::new(c, &seq_path).primitive::<UInt64Type>()?;
-        let (c, stamp_path) = column(top, Self::NAME, "local_stamp_nanos")?;
-        let stamps = Col::new(c, &stamp_path).primitive::<Int64Type>()?;
-        let (c, width_path) = column(top, Self::NAME, "width")?;
-        let widths = Col::new(c, &width_path).primitive::<UInt32Type>()?;
-        let (c, height_path) = column(top, Self::NAME, "height")?;
-        let heights = Col::new(c, &height_path).primitive::<UInt32Type>()?;
-        let (c, depth_path) = column(top, Self::NAME, "depth_mm")?;
-        let list = Col::new(c, &depth_path).list()?;
+        let top = Rows::new(array, Self::NAME)?;
+        let sensors = top.column::<StringArray>("sensor_id")?;
+        let seqs = top.column::<UInt64Array>("seq")?;
+        let stamps = top.column::<Int64Array>("local_stamp_nanos")?;
+        let widths = top.column::<UInt32Array>("width")?;
+        let heights = top.column::<UInt32Array>("height")?;
+        // The pixels are sliced out of the one item buffer rather than read cell by cell.
+        let (list, depth_path) = top.nested("depth_mm")?;
         let values_path = format!("{depth_path}.item");
-        let values = Col::new(list.values().as_ref(), &values_path)
-            .primitive::<arrow_array::types::UInt16Type>()?;
-        (0..top.len())
+        let values = Col::new(list.values().as_ref(), &values_path).primitive::<UInt16Type>()?;
+        top.rows()
             .map(|row| {
                 let range = list_range(list, &depth_path, row)?;
                 let pixels = values.slice(range.start, range.len());
@@ -145,11 +130,11 @@ impl Message for DepthFrameMessage {
                     });
                 }
                 let m = DepthFrameMessage {
-                    sensor_id: string(sensors, &sensor_path, row)?,
-                    seq: value(seqs, &seq_path, row)?,
-                    local_stamp_nanos: value(stamps, &stamp_path, row)?,
-                    width: value(widths, &width_path, row)?,
-                    height: value(heights, &height_path, row)?,
+                    sensor_id: sensors.get(row)?,
+                    seq: seqs.get(row)?,
+                    local_stamp_nanos: stamps.get(row)?,
+                    width: widths.get(row)?,
+                    height: heights.get(row)?,
                     depth_mm: pixels.values().to_vec(),
                 };
                 m.validate()?;

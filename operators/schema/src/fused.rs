@@ -12,17 +12,18 @@
 //! ```
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
 use arrow_array::types::{Float64Type, Int64Type, UInt8Type, UInt64Type};
-use arrow_array::{Array, ArrayRef, Float64Array, Int64Array, UInt8Array, UInt64Array};
+use arrow_array::{
+    Array, ArrayRef, Float64Array, Int64Array, StringArray, UInt8Array, UInt64Array,
+};
 use arrow_schema::{DataType, Fields};
 use nalgebra::{Matrix3, Point3};
 use trigait_skeleton::Joint;
 
 use crate::codec::{
-    Builder, Col, column, f64_tuple, field, joint_code, joint_from_code, list_of, list_range,
-    matrix_values, no_null_rows, point_values, string, struct_of, value,
+    Builder, Rows, f64_tuple, field, joint_code, joint_from_code, list_of, list_range,
+    matrix_values, point_values, struct_of,
 };
 use crate::{Error, Message, Result};
 
@@ -102,9 +103,7 @@ impl Message for FusedPose {
         let joint_items = b.structs(
             &joint_fields(),
             vec![
-                Arc::new(UInt8Array::from_iter_values(
-                    joints.iter().map(|(j, _)| joint_code(**j)),
-                )),
+                b.values::<UInt8Type>(joints.iter().map(|(j, _)| joint_code(**j))),
                 b.f64_tuples(3, point_values(joints.iter().map(|(_, f)| f.position)))?,
                 b.f64_tuples(9, matrix_values(joints.iter().map(|(_, f)| f.covariance)))?,
                 b.list(
@@ -116,12 +115,8 @@ impl Message for FusedPose {
                             .flat_map(|(_, f)| f.sensors_used.iter().map(String::as_str)),
                     ),
                 )?,
-                Arc::new(Float64Array::from_iter_values(
-                    joints.iter().map(|(_, f)| f.residual_m),
-                )),
-                Arc::new(Float64Array::from_iter_values(
-                    joints.iter().map(|(_, f)| f.condition_number),
-                )),
+                b.values::<Float64Type>(joints.iter().map(|(_, f)| f.residual_m)),
+                b.values::<Float64Type>(joints.iter().map(|(_, f)| f.condition_number)),
                 b.strings(joints.iter().map(|(_, f)| f.estimator.as_str())),
             ],
         )?;
@@ -130,9 +125,7 @@ impl Message for FusedPose {
         let skipped_items = b.structs(
             &skipped_fields(),
             vec![
-                Arc::new(UInt8Array::from_iter_values(
-                    skipped.iter().map(|(j, _)| joint_code(**j)),
-                )),
+                b.values::<UInt8Type>(skipped.iter().map(|(j, _)| joint_code(**j))),
                 b.strings(skipped.iter().map(|(_, r)| r.as_str())),
             ],
         )?;
@@ -141,12 +134,8 @@ impl Message for FusedPose {
         b.structs(
             &fields(),
             vec![
-                Arc::new(UInt64Array::from_iter_values(
-                    messages.iter().map(|m| m.set_seq),
-                )),
-                Arc::new(Int64Array::from_iter_values(
-                    messages.iter().map(|m| m.stamp_nanos),
-                )),
+                b.values::<UInt64Type>(messages.iter().map(|m| m.set_seq)),
+                b.values::<Int64Type>(messages.iter().map(|m| m.stamp_nanos)),
                 b.list(struct_of(joint_fields()), &joint_lengths, joint_items)?,
                 b.list(struct_of(skipped_fields()), &skipped_lengths, skipped_items)?,
             ],
@@ -154,22 +143,16 @@ impl Message for FusedPose {
     }
 
     fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        let name = Self::NAME;
-        let top = Col::new(array, name).structs()?;
-        no_null_rows(top, name)?;
-        let (c, seq_path) = column(top, name, "set_seq")?;
-        let seqs = Col::new(c, &seq_path).primitive::<UInt64Type>()?;
-        let (c, stamp_path) = column(top, name, "stamp_nanos")?;
-        let stamps = Col::new(c, &stamp_path).primitive::<Int64Type>()?;
-        let (c, joints_path) = column(top, name, "joints")?;
-        let joints_list = Col::new(c, &joints_path).list()?;
+        let top = Rows::new(array, Self::NAME)?;
+        let seqs = top.column::<UInt64Array>("set_seq")?;
+        let stamps = top.column::<Int64Array>("stamp_nanos")?;
+        let (joints_list, joints_path) = top.nested("joints")?;
         let joints = decode_joints(joints_list.values().as_ref(), &joints_path)?;
-        let (c, skipped_path) = column(top, name, "skipped")?;
-        let skipped_list = Col::new(c, &skipped_path).list()?;
+        let (skipped_list, skipped_path) = top.nested("skipped")?;
         let skipped = decode_skipped(skipped_list.values().as_ref(), &skipped_path)?;
 
-        let mut out = Vec::with_capacity(top.len());
-        for row in 0..top.len() {
+        let mut out = Vec::with_capacity(top.array.len());
+        for row in top.rows() {
             let pick = |list, path: &str, len: usize| -> Result<std::ops::Range<usize>> {
                 let range = list_range(list, path, row)?;
                 if range.end > len {
@@ -196,8 +179,8 @@ impl Message for FusedPose {
                 });
             }
             out.push(FusedPose {
-                set_seq: value(seqs, &seq_path, row)?,
-                stamp_nanos: value(stamps, &stamp_path, row)?,
+                set_seq: seqs.get(row)?,
+                stamp_nanos: stamps.get(row)?,
                 joints: fused,
                 skipped: skipped_map,
             });
@@ -207,52 +190,30 @@ impl Message for FusedPose {
 }
 
 fn decode_joints(array: &dyn Array, path: &str) -> Result<Vec<(Joint, FusedJoint)>> {
-    let items = Col::new(array, path).structs()?;
-    no_null_rows(items, path)?;
-    let (c, joint_path) = column(items, path, "joint")?;
-    let joints = Col::new(c, &joint_path).primitive::<UInt8Type>()?;
-    let (c, pos_path) = column(items, path, "position_m")?;
-    let positions = Col::new(c, &pos_path).f64_tuples(3)?;
-    let (c, cov_path) = column(items, path, "covariance_m2")?;
-    let covariances = Col::new(c, &cov_path).f64_tuples(9)?;
-    let (c, used_path) = column(items, path, "sensors_used")?;
-    let used_list = Col::new(c, &used_path).list()?;
-    let used_values = Col::new(used_list.values().as_ref(), &used_path).strings()?;
-    let (c, res_path) = column(items, path, "residual_m")?;
-    let residuals = Col::new(c, &res_path).primitive::<Float64Type>()?;
-    let (c, cond_path) = column(items, path, "condition_number")?;
-    let conditions = Col::new(c, &cond_path).primitive::<Float64Type>()?;
-    let (c, est_path) = column(items, path, "estimator")?;
-    let estimators = Col::new(c, &est_path).strings()?;
+    let items = Rows::new(array, path)?;
+    let joints = items.column::<UInt8Array>("joint")?;
+    let positions = items.tuples("position_m", 3)?;
+    let covariances = items.tuples("covariance_m2", 9)?;
+    let used_lists = items.list::<StringArray>("sensors_used")?;
+    let residuals = items.column::<Float64Array>("residual_m")?;
+    let conditions = items.column::<Float64Array>("condition_number")?;
+    let estimators = items.column::<StringArray>("estimator")?;
 
-    (0..items.len())
+    items
+        .rows()
         .map(|row| {
-            let p = positions
-                .get(3 * row..3 * row + 3)
-                .ok_or_else(|| Error::BadLength {
-                    field: pos_path.clone(),
-                    expected: 3 * items.len(),
-                    found: positions.len(),
-                })?;
-            let m = covariances
-                .get(9 * row..9 * row + 9)
-                .ok_or_else(|| Error::BadLength {
-                    field: cov_path.clone(),
-                    expected: 9 * items.len(),
-                    found: covariances.len(),
-                })?;
-            let sensors_used = list_range(used_list, &used_path, row)?
-                .map(|i| string(used_values, &used_path, i))
-                .collect::<Result<Vec<String>>>()?;
+            let position = positions.point(row)?;
+            let covariance = Matrix3::from_row_slice(covariances.get(row)?);
+            let sensors_used = used_lists.get(row)?;
             Ok((
-                joint_from_code(value(joints, &joint_path, row)?, &joint_path, row)?,
+                joint_from_code(joints.get(row)?, &joints.path, row)?,
                 FusedJoint {
-                    position: Point3::new(p[0], p[1], p[2]),
-                    covariance: Matrix3::from_row_slice(m),
+                    position,
+                    covariance,
                     sensors_used,
-                    residual_m: value(residuals, &res_path, row)?,
-                    condition_number: value(conditions, &cond_path, row)?,
-                    estimator: string(estimators, &est_path, row)?,
+                    residual_m: residuals.get(row)?,
+                    condition_number: conditions.get(row)?,
+                    estimator: estimators.get(row)?,
                 },
             ))
         })
@@ -260,17 +221,15 @@ fn decode_joints(array: &dyn Array, path: &str) -> Result<Vec<(Joint, FusedJoint
 }
 
 fn decode_skipped(array: &dyn Array, path: &str) -> Result<Vec<(Joint, String)>> {
-    let items = Col::new(array, path).structs()?;
-    no_null_rows(items, path)?;
-    let (c, joint_path) = column(items, path, "joint")?;
-    let joints = Col::new(c, &joint_path).primitive::<UInt8Type>()?;
-    let (c, reason_path) = column(items, path, "reason")?;
-    let reasons = Col::new(c, &reason_path).strings()?;
-    (0..items.len())
+    let items = Rows::new(array, path)?;
+    let joints = items.column::<UInt8Array>("joint")?;
+    let reasons = items.column::<StringArray>("reason")?;
+    items
+        .rows()
         .map(|row| {
             Ok((
-                joint_from_code(value(joints, &joint_path, row)?, &joint_path, row)?,
-                string(reasons, &reason_path, row)?,
+                joint_from_code(joints.get(row)?, &joints.path, row)?,
+                reasons.get(row)?,
             ))
         })
         .collect()

@@ -8,16 +8,12 @@
 //! A request carries only `t1` (server clock); the reply adds `t2`, `t3` (sensor clock); `sync`
 //! adds `t4` (server clock) when the reply arrives, e.g. before logging it.
 
-use std::sync::Arc;
-
 use arrow_array::types::{Int64Type, UInt64Type};
-use arrow_array::{Array, ArrayRef, Int64Array, UInt64Array};
+use arrow_array::{Array, ArrayRef, Int64Array, StringArray, UInt64Array};
 use arrow_schema::{DataType, Fields};
 use trigait_sync::NtpSample;
 
-use crate::codec::{
-    Builder, Col, column, field, no_null_rows, nullable, optional, string, struct_of, value,
-};
+use crate::codec::{Builder, Rows, field, nullable, struct_of};
 use crate::{Message, Result};
 
 /// One NTP exchange in any of its three stages (request, reply, completed).
@@ -104,42 +100,32 @@ impl Message for NtpExchange {
             &fields(),
             vec![
                 b.strings(messages.iter().map(|m| m.sensor_id.as_str())),
-                Arc::new(UInt64Array::from_iter_values(
-                    messages.iter().map(|m| m.request_id),
-                )),
-                Arc::new(Int64Array::from_iter_values(
-                    messages.iter().map(|m| m.t1_nanos),
-                )),
-                Arc::new(Int64Array::from_iter(messages.iter().map(|m| m.t2_nanos))),
-                Arc::new(Int64Array::from_iter(messages.iter().map(|m| m.t3_nanos))),
-                Arc::new(Int64Array::from_iter(messages.iter().map(|m| m.t4_nanos))),
+                b.values::<UInt64Type>(messages.iter().map(|m| m.request_id)),
+                b.values::<Int64Type>(messages.iter().map(|m| m.t1_nanos)),
+                b.optionals::<Int64Type>(messages.iter().map(|m| m.t2_nanos)),
+                b.optionals::<Int64Type>(messages.iter().map(|m| m.t3_nanos)),
+                b.optionals::<Int64Type>(messages.iter().map(|m| m.t4_nanos)),
             ],
         )
     }
 
     fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        let top = Col::new(array, Self::NAME).structs()?;
-        no_null_rows(top, Self::NAME)?;
-        let (c, sensor_path) = column(top, Self::NAME, "sensor_id")?;
-        let sensor_ids = Col::new(c, &sensor_path).strings()?;
-        let (c, id_path) = column(top, Self::NAME, "request_id")?;
-        let ids = Col::new(c, &id_path).primitive::<UInt64Type>()?;
-        let mut stamps = Vec::with_capacity(4);
-        let mut paths = Vec::with_capacity(4);
-        for name in ["t1_nanos", "t2_nanos", "t3_nanos", "t4_nanos"] {
-            let (c, path) = column(top, Self::NAME, name)?;
-            stamps.push(Col::new(c, &path).primitive::<Int64Type>()?);
-            paths.push(path);
-        }
-        (0..top.len())
+        let top = Rows::new(array, Self::NAME)?;
+        let sensor_ids = top.column::<StringArray>("sensor_id")?;
+        let ids = top.column::<UInt64Array>("request_id")?;
+        let t1 = top.column::<Int64Array>("t1_nanos")?;
+        let t2 = top.column::<Int64Array>("t2_nanos")?;
+        let t3 = top.column::<Int64Array>("t3_nanos")?;
+        let t4 = top.column::<Int64Array>("t4_nanos")?;
+        top.rows()
             .map(|row| {
                 Ok(NtpExchange {
-                    sensor_id: string(sensor_ids, &sensor_path, row)?,
-                    request_id: value(ids, &id_path, row)?,
-                    t1_nanos: value(stamps[0], &paths[0], row)?,
-                    t2_nanos: optional(stamps[1], row),
-                    t3_nanos: optional(stamps[2], row),
-                    t4_nanos: optional(stamps[3], row),
+                    sensor_id: sensor_ids.get(row)?,
+                    request_id: ids.get(row)?,
+                    t1_nanos: t1.get(row)?,
+                    t2_nanos: t2.optional(row),
+                    t3_nanos: t3.optional(row),
+                    t4_nanos: t4.optional(row),
                 })
             })
             .collect()

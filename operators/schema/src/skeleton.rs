@@ -8,16 +8,14 @@
 //! }
 //! ```
 
-use std::sync::Arc;
-
 use arrow_array::types::{Float32Type, Int64Type, UInt64Type};
-use arrow_array::{Array, ArrayRef, Float32Array, Int64Array, UInt8Array, UInt64Array};
+use arrow_array::{Array, ArrayRef, Float32Array, Int64Array, StringArray, UInt64Array};
 use arrow_schema::{DataType, Fields};
 use trigait_skeleton::{JointSample, SkeletonFrame};
 
 use crate::codec::{
-    Builder, Col, column, decode_joint_samples, f64_tuple, field, joint_code, list_of, list_range,
-    no_null_rows, nullable, optional, point_values, state_code, string, struct_of, value,
+    Builder, Rows, decode_joint_samples, encode_joint_samples, f64_tuple, field, list_of,
+    list_range, nullable, struct_of,
 };
 use crate::{Error, Message, Result};
 
@@ -90,65 +88,42 @@ impl Message for SkeletonFrameMessage {
             }
         }
         let samples = messages.iter().flat_map(|m| m.frame.joints.iter());
-        let confidence: Vec<Option<f32>> = messages
+        let confidence = messages
             .iter()
-            .flat_map(|m| (0..m.frame.joints.len()).map(|i| m.confidence_of(i)))
-            .collect();
-        let joints = b.structs(
-            &joint_fields(),
-            vec![
-                Arc::new(UInt8Array::from_iter_values(
-                    samples.clone().map(|s| joint_code(s.joint)),
-                )),
-                b.f64_tuples(
-                    3,
-                    point_values(samples.clone().map(|s| s.position_in_kinect)),
-                )?,
-                Arc::new(UInt8Array::from_iter_values(
-                    samples.map(|s| state_code(s.state)),
-                )),
-                Arc::new(Float32Array::from(confidence)),
-            ],
-        )?;
+            .flat_map(|m| (0..m.frame.joints.len()).map(|i| m.confidence_of(i)));
+        let mut columns = encode_joint_samples(&b, samples)?;
+        columns.push(b.optionals::<Float32Type>(confidence));
+        let joints = b.structs(&joint_fields(), columns)?;
         let lengths: Vec<usize> = messages.iter().map(|m| m.frame.joints.len()).collect();
         b.structs(
             &fields(),
             vec![
                 b.strings(messages.iter().map(|m| m.frame.sensor_id.as_str())),
-                Arc::new(UInt64Array::from_iter_values(
-                    messages.iter().map(|m| m.frame.seq),
-                )),
-                Arc::new(Int64Array::from_iter_values(
-                    messages.iter().map(|m| m.frame.local_stamp_nanos),
-                )),
+                b.values::<UInt64Type>(messages.iter().map(|m| m.frame.seq)),
+                b.values::<Int64Type>(messages.iter().map(|m| m.frame.local_stamp_nanos)),
                 b.list(struct_of(joint_fields()), &lengths, joints)?,
             ],
         )
     }
 
     fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        let top = Col::new(array, Self::NAME).structs()?;
-        no_null_rows(top, Self::NAME)?;
-        let (c, sensor_path) = column(top, Self::NAME, "sensor_id")?;
-        let sensor_ids = Col::new(c, &sensor_path).strings()?;
-        let (c, seq_path) = column(top, Self::NAME, "seq")?;
-        let seqs = Col::new(c, &seq_path).primitive::<UInt64Type>()?;
-        let (c, stamp_path) = column(top, Self::NAME, "local_stamp_nanos")?;
-        let stamps = Col::new(c, &stamp_path).primitive::<Int64Type>()?;
-        let (c, joints_path) = column(top, Self::NAME, "joints")?;
-        let joints_list = Col::new(c, &joints_path).list()?;
+        let top = Rows::new(array, Self::NAME)?;
+        let sensor_ids = top.column::<StringArray>("sensor_id")?;
+        let seqs = top.column::<UInt64Array>("seq")?;
+        let stamps = top.column::<Int64Array>("local_stamp_nanos")?;
+        let (joints_list, joints_path) = top.nested("joints")?;
         let (items, confidence) = decode_joints(joints_list.values().as_ref(), &joints_path)?;
 
-        let mut out = Vec::with_capacity(top.len());
-        for row in 0..top.len() {
+        let mut out = Vec::with_capacity(top.array.len());
+        for row in top.rows() {
             let range = list_range(joints_list, &joints_path, row)?;
             let joints: Vec<JointSample> = items[range.clone()].to_vec();
             let conf: Vec<Option<f32>> = confidence[range].to_vec();
             out.push(SkeletonFrameMessage {
                 frame: SkeletonFrame {
-                    sensor_id: string(sensor_ids, &sensor_path, row)?,
-                    seq: value(seqs, &seq_path, row)?,
-                    local_stamp_nanos: value(stamps, &stamp_path, row)?,
+                    sensor_id: sensor_ids.get(row)?,
+                    seq: seqs.get(row)?,
+                    local_stamp_nanos: stamps.get(row)?,
                     joints,
                 },
                 confidence: if conf.iter().all(Option::is_none) {
@@ -165,8 +140,7 @@ impl Message for SkeletonFrameMessage {
 /// Decodes the flat joint items of the `joints` list.
 fn decode_joints(array: &dyn Array, path: &str) -> Result<(Vec<JointSample>, Vec<Option<f32>>)> {
     let (items, samples) = decode_joint_samples(array, path)?;
-    let (c, extra_path) = column(items, path, "confidence")?;
-    let extra = Col::new(c, &extra_path).primitive::<Float32Type>()?;
-    let confidence = (0..items.len()).map(|row| optional(extra, row)).collect();
+    let extra = items.column::<Float32Array>("confidence")?;
+    let confidence = items.rows().map(|row| extra.optional(row)).collect();
     Ok((samples, confidence))
 }

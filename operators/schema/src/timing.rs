@@ -10,15 +10,11 @@
 //! capture instant on the server clock when the source knows it (simulated sensors), so the
 //! mapping error is `server_stamp_nanos − true_stamp_nanos`.
 
-use std::sync::Arc;
-
 use arrow_array::types::{Float64Type, Int64Type, UInt64Type};
-use arrow_array::{Array, ArrayRef, Float64Array, Int64Array, UInt64Array};
+use arrow_array::{Array, ArrayRef, Float64Array, Int64Array, StringArray, UInt64Array};
 use arrow_schema::{DataType, Fields};
 
-use crate::codec::{
-    Builder, Col, column, field, no_null_rows, nullable, optional, string, struct_of, value,
-};
+use crate::codec::{Builder, Rows, field, nullable, struct_of};
 use crate::{Message, Result};
 
 /// One frame's placement on the server clock.
@@ -74,66 +70,44 @@ impl Message for FrameTiming {
         let b = Builder {
             message: Self::NAME,
         };
-        let ints = |f: fn(&FrameTiming) -> Option<i64>| -> ArrayRef {
-            Arc::new(messages.iter().map(f).collect::<Int64Array>())
-        };
+        let ints =
+            |f: fn(&FrameTiming) -> Option<i64>| b.optionals::<Int64Type>(messages.iter().map(f));
         b.structs(
             &fields(),
             vec![
                 b.strings(messages.iter().map(|m| m.sensor_id.as_str())),
-                Arc::new(UInt64Array::from_iter_values(
-                    messages.iter().map(|m| m.seq),
-                )),
-                Arc::new(Int64Array::from_iter_values(
-                    messages.iter().map(|m| m.local_stamp_nanos),
-                )),
+                b.values::<UInt64Type>(messages.iter().map(|m| m.seq)),
+                b.values::<Int64Type>(messages.iter().map(|m| m.local_stamp_nanos)),
                 ints(|m| m.server_stamp_nanos),
                 ints(|m| m.uncertainty_nanos),
                 ints(|m| m.offset_nanos),
-                Arc::new(
-                    messages
-                        .iter()
-                        .map(|m| m.drift_ppm)
-                        .collect::<Float64Array>(),
-                ),
+                b.optionals::<Float64Type>(messages.iter().map(|m| m.drift_ppm)),
                 ints(|m| m.true_stamp_nanos),
             ],
         )
     }
 
     fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        let top = Col::new(array, Self::NAME).structs()?;
-        no_null_rows(top, Self::NAME)?;
-        let (c, sensor_path) = column(top, Self::NAME, "sensor_id")?;
-        let sensor_ids = Col::new(c, &sensor_path).strings()?;
-        let (c, seq_path) = column(top, Self::NAME, "seq")?;
-        let seqs = Col::new(c, &seq_path).primitive::<UInt64Type>()?;
-        let (c, drift_path) = column(top, Self::NAME, "drift_ppm")?;
-        let drifts = Col::new(c, &drift_path).primitive::<Float64Type>()?;
-        let mut stamps = Vec::with_capacity(5);
-        let mut paths = Vec::with_capacity(5);
-        for name in [
-            "local_stamp_nanos",
-            "server_stamp_nanos",
-            "uncertainty_nanos",
-            "offset_nanos",
-            "true_stamp_nanos",
-        ] {
-            let (c, path) = column(top, Self::NAME, name)?;
-            stamps.push(Col::new(c, &path).primitive::<Int64Type>()?);
-            paths.push(path);
-        }
-        (0..top.len())
+        let top = Rows::new(array, Self::NAME)?;
+        let sensor_ids = top.column::<StringArray>("sensor_id")?;
+        let seqs = top.column::<UInt64Array>("seq")?;
+        let drifts = top.column::<Float64Array>("drift_ppm")?;
+        let local = top.column::<Int64Array>("local_stamp_nanos")?;
+        let server = top.column::<Int64Array>("server_stamp_nanos")?;
+        let uncertainty = top.column::<Int64Array>("uncertainty_nanos")?;
+        let offset = top.column::<Int64Array>("offset_nanos")?;
+        let truth = top.column::<Int64Array>("true_stamp_nanos")?;
+        top.rows()
             .map(|row| {
                 Ok(FrameTiming {
-                    sensor_id: string(sensor_ids, &sensor_path, row)?,
-                    seq: value(seqs, &seq_path, row)?,
-                    local_stamp_nanos: value(stamps[0], &paths[0], row)?,
-                    server_stamp_nanos: optional(stamps[1], row),
-                    uncertainty_nanos: optional(stamps[2], row),
-                    offset_nanos: optional(stamps[3], row),
-                    drift_ppm: optional(drifts, row),
-                    true_stamp_nanos: optional(stamps[4], row),
+                    sensor_id: sensor_ids.get(row)?,
+                    seq: seqs.get(row)?,
+                    local_stamp_nanos: local.get(row)?,
+                    server_stamp_nanos: server.optional(row),
+                    uncertainty_nanos: uncertainty.optional(row),
+                    offset_nanos: offset.optional(row),
+                    drift_ppm: drifts.optional(row),
+                    true_stamp_nanos: truth.optional(row),
                 })
             })
             .collect()

@@ -200,6 +200,26 @@ impl Simulator {
     }
 }
 
+/// One sensor's estimator input for `joint`: where the sensor has it (`position(joint)`, in
+/// its kinect frame) weighed by the sensor's noise model there, for its tracking `state` and
+/// the limb axis from the neighbouring joints it has (`position` again). `None` when
+/// `position(joint)` is.
+///
+/// The one place observations are made: `trigait eval` (through [`Snapshot::observations`])
+/// and the dataflow's `trilaterate` node both call it, so they fuse with the same weights.
+#[must_use]
+pub fn observation(
+    sensor: &Sensor,
+    joint: Joint,
+    state: TrackingState,
+    position: impl Fn(Joint) -> Option<Point3<f64>>,
+) -> Option<Observation> {
+    let p = position(joint)?;
+    let limb = trigait_kinect::limb_axis(joint, &position);
+    let covariance = sensor.covariance_in_kinect(joint, &p, state, limb);
+    Some(Observation::new(sensor.world_from_kinect, p, covariance))
+}
+
 impl Snapshot {
     /// The estimator inputs for `joint`: one [`Observation`] per sensor that reported it, weighed
     /// by the sensor model at the *reported* position (what a receiver knows), with the indices
@@ -247,17 +267,16 @@ impl Snapshot {
             let Some(Some(report)) = reports.get(column) else {
                 continue;
             };
-            let state: TrackingState = report.state();
             if report.position_in_kinect.is_none() {
                 continue;
             }
-            let Some(p) = position(sensor, reports, joint) else {
+            let Some(o) = observation(sensor, joint, report.state(), |j| {
+                position(sensor, reports, j)
+            }) else {
                 continue;
             };
-            let limb = trigait_kinect::limb_axis(joint, |j| position(sensor, reports, j));
-            let covariance = sensor.covariance_in_kinect(joint, &p, state, limb);
             indices.push(i);
-            observations.push(Observation::new(sensor.world_from_kinect, p, covariance));
+            observations.push(o);
         }
         (indices, observations)
     }

@@ -1,0 +1,116 @@
+//! Reading a dora node's `env:` block, one variable at a time.
+//!
+//! Every node's `Config::from_lookup` parses numbers (and a few other values) out of its
+//! `env:` block, and a bad value must stop the node with an error naming the node, the
+//! variable and the raw value (`sync: SLOT_MILLIS="-3" is invalid: expected …`), so a wrong
+//! line in a dataflow YAML is found without reading code. Each node used to carry its own copy
+//! of that parsing; these functions are the one copy.
+//!
+//! `lookup` is the node's variable source (`|k| std::env::var(k).ok()` in production, a fixed
+//! list in tests). Values are trimmed before parsing. A variable that is not set yields the
+//! default (or `None`); a default is not checked.
+//!
+//! This crate serves the nodes only: operator crates keep their own typed errors (`eyre` is
+//! the nodes' error type).
+
+#![warn(missing_docs)]
+
+use std::str::FromStr;
+
+use eyre::bail;
+
+/// `key` parsed as `T` and accepted by `ok`, or `None` when it is not set.
+///
+/// # Errors
+/// `"{node}: {key}={raw:?} is invalid: expected {expected}"` when the value does not parse or
+/// `ok` refuses it.
+pub fn env_value<T: FromStr>(
+    node: &str,
+    lookup: &impl Fn(&str) -> Option<String>,
+    key: &str,
+    ok: impl Fn(&T) -> bool,
+    expected: &str,
+) -> eyre::Result<Option<T>> {
+    let Some(raw) = lookup(key) else {
+        return Ok(None);
+    };
+    match raw.trim().parse::<T>() {
+        Ok(v) if ok(&v) => Ok(Some(v)),
+        _ => bail!("{node}: {key}={raw:?} is invalid: expected {expected}"),
+    }
+}
+
+/// `key` as a finite number, `default` when it is not set.
+///
+/// # Errors
+/// As [`env_value`], when the value is not a finite number.
+pub fn env_number(
+    node: &str,
+    lookup: &impl Fn(&str) -> Option<String>,
+    key: &str,
+    default: f64,
+) -> eyre::Result<f64> {
+    env_number_where(node, lookup, key, default, |_| true, "a finite number")
+}
+
+/// `key` as a finite number accepted by `ok` (a range, a sign), `default` when it is not set.
+///
+/// # Errors
+/// As [`env_value`], when the value is not a finite number or `ok` refuses it; `expected`
+/// says what would be accepted (`"a cut-off in Hz above 0"`).
+pub fn env_number_where(
+    node: &str,
+    lookup: &impl Fn(&str) -> Option<String>,
+    key: &str,
+    default: f64,
+    ok: impl Fn(f64) -> bool,
+    expected: &str,
+) -> eyre::Result<f64> {
+    let v = env_value(
+        node,
+        lookup,
+        key,
+        |v: &f64| v.is_finite() && ok(*v),
+        expected,
+    )?;
+    Ok(v.unwrap_or(default))
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+
+    fn env(pairs: &'static [(&'static str, &'static str)]) -> impl Fn(&str) -> Option<String> {
+        move |k| {
+            pairs
+                .iter()
+                .find(|(key, _)| *key == k)
+                .map(|(_, v)| (*v).to_owned())
+        }
+    }
+
+    /// Unset gives the default, a set value is trimmed and parsed, and a refused value names
+    /// the node, the key, the raw value and what was expected.
+    #[test]
+    fn defaults_values_and_errors() {
+        let lookup = env(&[("A", " 2.5 "), ("B", "inf"), ("C", "x"), ("N", "-1")]);
+        assert_eq!(env_number("n", &lookup, "UNSET", 7.0).unwrap(), 7.0);
+        assert_eq!(env_number("n", &lookup, "A", 7.0).unwrap(), 2.5);
+        for key in ["B", "C"] {
+            let err = env_number("node", &lookup, key, 0.0).unwrap_err();
+            assert!(
+                err.to_string().starts_with(&format!("node: {key}=")),
+                "{err}"
+            );
+        }
+        let err = env_number_where("node", &lookup, "N", 1.0, |v| v > 0.0, "a positive count")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(err, r#"node: N="-1" is invalid: expected a positive count"#);
+        let n: Option<u64> = env_value("node", &lookup, "UNSET", |_| true, "").unwrap();
+        assert_eq!(n, None);
+        assert!(env_value::<u64>("node", &lookup, "N", |_| true, "a count").is_err());
+    }
+}
