@@ -78,6 +78,38 @@ fn pose(seq: u64, t: i64, x: f64) -> FusedPose {
     }
 }
 
+/// Every simulated source sends the same truth: a second copy of an instant is skipped, so the
+/// score is that of one copy (and a stale or differing copy cannot move it).
+#[test]
+fn truth_from_several_sources_counts_once() {
+    let mut one = Stats::default();
+    let mut many = Stats::default();
+    let rows = |x0: f64| {
+        (0..50)
+            .map(|i| truth_row(i * 2_000_000, x0 + i as f64 * 0.002))
+            .collect::<Vec<_>>()
+    };
+    one.push_truth(rows(0.0));
+    many.push_truth(rows(0.0));
+    many.push_truth(rows(0.0));
+    many.push_truth(rows(0.5));
+    assert_eq!(
+        one.truth_at(Joint::KneeLeft, 15_000_000),
+        many.truth_at(Joint::KneeLeft, 15_000_000)
+    );
+    for stats in [&mut one, &mut many] {
+        stats.push_pose(pose(0, 15_000_000, 0.045), 20_000_000, None, Some(0));
+    }
+    let (a, b) = (one.summary(30_000_000), many.summary(30_000_000));
+    assert_eq!(a.truth_samples, b.truth_samples);
+    assert_eq!(a.rmse_all_m, b.rmse_all_m);
+    assert!(
+        (a.rmse_all_m.unwrap() - 0.03).abs() < 1e-9,
+        "{:?}",
+        a.rmse_all_m
+    );
+}
+
 /// RMSE against truth interpolated at the fusion instant; seq gaps are dropped sets; missing
 /// sensors make a set incomplete; latency and NTP shares are percentiles of what came in.
 #[test]
