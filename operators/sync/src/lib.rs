@@ -61,6 +61,7 @@ mod error;
 mod filter;
 pub mod ntp;
 mod params;
+mod schedule;
 pub mod sim;
 
 pub use buffer::{AlignedSet, SensorView, SyncBuffer, SyncCounters, TimedFrame};
@@ -68,3 +69,4 @@ pub use error::{Error, Result};
 pub use filter::{ClockEstimate, ClockFilter, ClockFilterParams, SampleOutcome, ServerTime};
 pub use ntp::{NtpMeasurement, NtpSample, Rejection};
 pub use params::{Interpolation, Policy, SyncParams};
+pub use schedule::NtpSchedule;
