@@ -24,7 +24,9 @@ pub struct SegmentParams {
     pub velocity_window_secs: f64,
     /// Walking runs shorter than this (s) are dropped as too short. Default 0.8 s.
     pub min_segment_secs: f64,
-    /// Gaps (missing joints) up to this long (s) between walking frames do not split a segment.
+    /// Gaps (missing joints) up to this long (s) between walking frames do not split a segment,
+    /// unless the walking direction differs across the gap by more than the turn rate allows
+    /// over one velocity window (a dropout at a reversal).
     /// No event is detected in or next to such a gap, and the gap is still reported, but a
     /// stride whose two heel strikes were both seen may span it. Default 0.1 s (3 Kinect
     /// frames): a tracker dropout in mid-stance should not cost two strides. 0 splits at every
@@ -295,7 +297,18 @@ pub(crate) fn segment_tracks(tracks: &Tracks, params: &SegmentParams) -> Segment
         let walking_around = start > 0
             && classes[start - 1] == Class::Walking
             && classes.get(f) == Some(&Class::Walking);
-        if walking_around && f - start <= max_gap {
+        // The turn check above cannot see across a gap (velocities stay within a run of
+        // complete frames), so a dropout at a sharp reversal would join the two legs. Bridge
+        // only when the headings on both sides agree to within what straight walking may turn
+        // over one velocity window.
+        let same_heading = match (velocities[start.saturating_sub(1)], velocities.get(f)) {
+            (Some(va), Some(Some(vb))) => {
+                va.perp(vb).atan2(va.dot(vb)).abs()
+                    <= params.max_turn_rate_rad_per_s * params.velocity_window_secs
+            }
+            _ => false,
+        };
+        if walking_around && same_heading && f - start <= max_gap {
             bridged[start..f].iter_mut().for_each(|b| *b = true);
         }
     }

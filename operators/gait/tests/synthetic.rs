@@ -424,3 +424,47 @@ fn short_dropout_is_bridged() {
     assert_eq!(split.segments.len(), 2);
     assert!(split.summary.strides < a.summary.strides);
 }
+
+/// A dropout right at a sharp reversal (the simulated walker turns on the spot at the end of
+/// the walkway) is not bridged: the headings on its two sides disagree, so the two legs stay
+/// two segments with opposite directions and no stride spans the turn.
+#[test]
+fn dropout_at_a_reversal_is_not_bridged() {
+    let walk = Walk {
+        rate_hz: 30.0,
+        duration_secs: 8.0,
+        path: vec![
+            Piece::Straight(4.0),
+            Piece::Arc(0.05, std::f64::consts::PI),
+            Piece::Straight(20.0),
+        ],
+        ..Walk::default()
+    };
+    let (clip, _) = walk.build();
+    // The arc starts after 4 m at 1.3 m/s ≈ 3.08 s ≈ frame 92 and lasts ≈ 0.12 s.
+    let turn = (4.0 / walk.speed_mps * 30.0) as usize;
+    let joints = clip.joints().to_vec();
+    let frames: Vec<Vec<Option<Point3<f64>>>> = (0..clip.frame_count())
+        .map(|f| {
+            joints
+                .iter()
+                .map(|j| {
+                    if (turn..turn + 3).contains(&f) {
+                        None
+                    } else {
+                        clip.position(f, *j)
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let dropped = MotionClip::new("reversal dropout", 30.0, joints, frames).unwrap();
+    let a = analyse(&dropped, &GaitParams::default()).unwrap();
+    assert_eq!(a.segments.len(), 2, "{:?}", a.excluded);
+    let (d0, d1) = (a.segments[0].direction, a.segments[1].direction);
+    assert!(d0[0] * d1[0] + d0[1] * d1[1] < -0.9, "{d0:?} {d1:?}");
+    for s in &a.strides {
+        let seg = &a.segments[s.segment];
+        assert!(s.start_secs >= seg.start_secs && s.end_secs <= seg.end_secs);
+    }
+}
