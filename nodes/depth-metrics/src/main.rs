@@ -13,6 +13,7 @@ mod tests;
 
 use dora_node_api::{DoraNode, Event, EventStream};
 use eyre::Context;
+use tracing::{info, warn};
 use trigait_depth_rerun::RecordingStream;
 use trigait_schema::ports;
 
@@ -20,6 +21,7 @@ use crate::config::Config;
 use crate::state::{Pushed, Sensors};
 
 fn main() -> eyre::Result<()> {
+    trigait_node_log::init("depth-metrics");
     let config = Config::from_env()?;
     let (node, events) =
         DoraNode::init_from_env().context("depth-metrics: connecting to the dora daemon")?;
@@ -55,23 +57,18 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     let mut sensors = Sensors::new(config.params, config.report_every);
     let mut counters = Counters::default();
     while let Some(event) = events.recv() {
+        trigait_node_log::warn_drops(&mut events);
         match event {
             Event::Input { id, data, .. } => {
                 let Some(sensor) = ports::sensor_of(id.as_str(), ports::DEPTH_INPUT_PREFIX) else {
                     counters.unknown += 1;
-                    eprintln!(
-                        "WARN depth-metrics: ignoring unknown input {:?}",
-                        id.as_str()
-                    );
+                    warn!(input = id.as_str(), "ignoring an unknown input");
                     continue;
                 };
                 match sensors.push(sensor, data.as_array().as_ref(), now_nanos()) {
                     (Pushed::Refused, why) => {
                         counters.refused += 1;
-                        eprintln!(
-                            "WARN depth-metrics: skipping a frame of {sensor}: {}",
-                            why.unwrap_or_default()
-                        );
+                        warn!(%sensor, "skipping a frame: {}", why.unwrap_or_default());
                     }
                     (Pushed::Analysed, _) => counters.analysed += 1,
                     (Pushed::ReportDue, _) => {
@@ -89,7 +86,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                 }
             }
             Event::Stop(_) => {}
-            Event::Error(e) => eprintln!("WARN depth-metrics: event stream error: {e}"),
+            Event::Error(e) => warn!("event stream error: {e}"),
             _ => {}
         }
     }
@@ -97,8 +94,8 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     sensors.write_json(&json)?;
     // Dropping the stream flushes the .rrd footer.
     drop(rec);
-    eprintln!(
-        "INFO depth-metrics: {} frames analysed, {} refused, {} unknown inputs; report in {}",
+    info!(
+        "{} frames analysed, {} refused, {} unknown inputs; report in {}",
         counters.analysed,
         counters.refused,
         counters.unknown,

@@ -16,12 +16,14 @@ mod tests;
 use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{DoraNode, Event, EventStream};
 use eyre::Context;
+use tracing::{info, warn};
 use trigait_gait::stream::{JointOutcome, PoseFilter, StreamCounts};
 use trigait_schema::{FusedPose, Message, ports};
 
 use crate::config::Config;
 
 fn main() -> eyre::Result<()> {
+    trigait_node_log::init("filter");
     let config = Config::from_env()?;
     let (node, events) =
         DoraNode::init_from_env().context("filter: connecting to the dora daemon")?;
@@ -70,11 +72,12 @@ pub fn filter_pose(filter: &mut PoseFilter, pose: &mut FusedPose) -> usize {
 /// The event loop.
 pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre::Result<Counters> {
     let mut filter = PoseFilter::new(config.params).context("filter: building the filter")?;
-    eprintln!("INFO filter: {}", config.params.filter);
+    info!("{}", config.params.filter);
     let pose_out = DataId::from(ports::FUSED_POSE.to_owned());
     let mut counters = Counters::default();
     let mut rejected_total = 0_u64;
     while let Some(event) = events.recv() {
+        trigait_node_log::warn_drops(&mut events);
         match event {
             Event::Input { id, metadata, data } => match id.as_str() {
                 ports::FUSED_POSE => {
@@ -82,15 +85,13 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                         Ok(pose) => pose,
                         Err(e) => {
                             counters.malformed += 1;
-                            eprintln!("WARN filter: skipping a malformed fused pose: {e}");
+                            warn!("skipping a malformed fused pose: {e}");
                             continue;
                         }
                     };
                     let rejected = filter_pose(&mut filter, &mut pose);
                     if rejected > 0 && rejected_total == 0 {
-                        eprintln!(
-                            "WARN filter: dropping joints with non-finite positions (counted)"
-                        );
+                        warn!("dropping joints with non-finite positions (counted)");
                     }
                     rejected_total += rejected as u64;
                     let array = pose.encode().context("filter: encoding a fused pose")?;
@@ -98,9 +99,9 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                         .context("filter: sending fused_pose")?;
                     counters.poses_sent += 1;
                 }
-                other => eprintln!("WARN filter: ignoring unknown input {other:?}"),
+                other => warn!(input = other, "ignoring an unknown input"),
             },
-            Event::Error(e) => eprintln!("WARN filter: event stream error: {e}"),
+            Event::Error(e) => warn!("event stream error: {e}"),
             _ => {}
         }
     }
@@ -111,8 +112,8 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
         .iter()
         .map(|(r, n)| format!("{} {n}", r.name()))
         .collect();
-    eprintln!(
-        "INFO filter: {} poses sent, {} joint samples filtered, {} (re)started, resets: {}; {} malformed inputs",
+    info!(
+        "{} poses sent, {} joint samples filtered, {} (re)started, resets: {}; {} malformed inputs",
         counters.poses_sent,
         counters.filter.filtered,
         counters.filter.started,

@@ -268,7 +268,7 @@ impl DepthStream {
                     Ok(frame) => break frame.as_mm().to_vec(),
                     Err(e) => {
                         self.skipped += 1;
-                        eprintln!("WARN {NODE} {}: skipping depth file: {e}", self.sensor_id);
+                        tracing::warn!("skipping depth file: {e}");
                     }
                 }
             },

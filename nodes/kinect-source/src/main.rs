@@ -14,6 +14,7 @@ use std::time::Duration;
 use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{DoraNode, Event, EventStream, MetadataParameters, Parameter};
 use eyre::Context;
+use tracing::{info, warn};
 use trigait_schema::{Message, NtpExchange, SkeletonFrameMessage, ports};
 
 use crate::backend::{Captured, SensorClock, Source, now_nanos};
@@ -21,6 +22,7 @@ use crate::config::Config;
 
 fn main() -> eyre::Result<()> {
     let config = Config::from_env()?;
+    trigait_node_log::init(&format!("kinect-source {}", config.sensor_id));
     let source = Source::new(&config, now_nanos())?;
     let (node, events) =
         DoraNode::init_from_env().context("kinect-source: connecting to the dora daemon")?;
@@ -68,9 +70,8 @@ pub fn run(
             send_capture(&mut node, &frame_out, &truth_out, captured)?;
             counters.frames_sent += 1;
             if config.stop_after_frames == Some(counters.frames_sent) {
-                eprintln!(
-                    "INFO kinect-source {}: stopping after {} frames ({})",
-                    config.sensor_id,
+                info!(
+                    "stopping after {} frames ({})",
                     counters.frames_sent,
                     config::STOP_AFTER_FRAMES
                 );
@@ -79,10 +80,7 @@ pub fn run(
         }
         depth::send_due(depth.as_mut(), &mut node, &depth_out, &mut clock)?;
         let Some(due) = source.next_due() else {
-            eprintln!(
-                "INFO kinect-source {}: replay finished after {} frames",
-                config.sensor_id, counters.frames_sent
-            );
+            info!("replay finished after {} frames", counters.frames_sent);
             return Ok(counters);
         };
         let due = depth::earliest(due, depth.as_ref());
@@ -90,6 +88,7 @@ pub fn run(
         let Some(event) = events.recv_timeout(Duration::from_nanos(wait_nanos)) else {
             break;
         };
+        trigait_node_log::warn_drops(&mut events);
         match event {
             Event::Input { id, metadata, data } => match id.as_str() {
                 ports::NTP_REQUEST => {
@@ -98,10 +97,7 @@ pub fn run(
                         Ok(r) => r,
                         Err(e) => {
                             counters.malformed += 1;
-                            eprintln!(
-                                "WARN kinect-source {}: skipping a malformed ntp_request: {e}",
-                                config.sensor_id
-                            );
+                            warn!("skipping a malformed ntp_request: {e}");
                             continue;
                         }
                     };
@@ -114,23 +110,17 @@ pub fn run(
                         .context("kinect-source: sending ntp_reply")?;
                     counters.ntp_answered += 1;
                 }
-                other => eprintln!(
-                    "WARN kinect-source {}: ignoring unknown input {other:?}",
-                    config.sensor_id
-                ),
+                other => warn!(input = other, "ignoring an unknown input"),
             },
             Event::Stop(_) | Event::InputClosed { .. } => {}
             Event::Error(e) if e.contains("Timeout") || e.contains("timed out") => {}
-            Event::Error(e) => eprintln!(
-                "WARN kinect-source {}: event stream error: {e}",
-                config.sensor_id
-            ),
+            Event::Error(e) => warn!("event stream error: {e}"),
             _ => {}
         }
     }
-    eprintln!(
-        "INFO kinect-source {}: {} frames sent, {} NTP requests answered, {} malformed inputs",
-        config.sensor_id, counters.frames_sent, counters.ntp_answered, counters.malformed
+    info!(
+        "{} frames sent, {} NTP requests answered, {} malformed inputs",
+        counters.frames_sent, counters.ntp_answered, counters.malformed
     );
     Ok(counters)
 }

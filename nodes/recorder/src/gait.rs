@@ -77,8 +77,8 @@ impl Gait {
     pub fn finish(&mut self, rec: &RecordingStream) -> (LiveReport, eyre::Result<()>) {
         let (events, report) = self.live.finish();
         let logged = log_events(rec, &events).and_then(|()| self.log_report(rec, &report));
-        eprintln!(
-            "INFO recorder: gait: {} heel strikes left, {} right; {}",
+        tracing::info!(
+            "gait: {} heel strikes left, {} right; {}",
             report.heel_strikes.left,
             report.heel_strikes.right,
             match (&report.cadence_steps_per_min, &report.reason) {

@@ -13,6 +13,7 @@ mod viz;
 
 use dora_node_api::{DoraNode, Event, EventStream, get_integer_param};
 use eyre::Context;
+use tracing::{error, info, warn};
 use trigait_schema::{FrameTiming, FusedPose, Message, SkeletonFrameMessage, ports};
 
 use crate::config::Config;
@@ -20,6 +21,7 @@ use crate::export::Ring;
 use crate::stats::{Stats, Summary};
 
 fn main() -> eyre::Result<()> {
+    trigait_node_log::init("recorder");
     let config = Config::from_env()?;
     let (node, events) =
         DoraNode::init_from_env().context("recorder: connecting to the dora daemon")?;
@@ -70,7 +72,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                         }
                         Err(e) => {
                             stats.malformed += 1;
-                            eprintln!("WARN recorder: skipping a malformed fused pose: {e}");
+                            warn!("skipping a malformed fused pose: {e}");
                             Ok(())
                         }
                     }
@@ -82,7 +84,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                         }
                         Err(e) => {
                             stats.malformed += 1;
-                            eprintln!("WARN recorder: skipping malformed frame timings: {e}");
+                            warn!("skipping malformed frame timings: {e}");
                             Ok(())
                         }
                     }
@@ -94,9 +96,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                         }
                         Err(e) => {
                             stats.malformed += 1;
-                            eprintln!(
-                                "WARN recorder: skipping malformed ground truth of {sensor}: {e}"
-                            );
+                            warn!(%sensor, "skipping malformed ground truth: {e}");
                             Ok(())
                         }
                     }
@@ -108,34 +108,31 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                         }
                         Err(e) => {
                             stats.malformed += 1;
-                            eprintln!("WARN recorder: skipping a malformed frame of {sensor}: {e}");
+                            warn!(%sensor, "skipping a malformed frame: {e}");
                             Ok(())
                         }
                     }
                 } else {
-                    eprintln!("WARN recorder: ignoring unknown input {id:?}");
+                    warn!(input = id, "ignoring an unknown input");
                     Ok(())
                 };
                 if let Err(e) = logged {
                     rerun_errors += 1;
                     if rerun_errors == 1 {
-                        eprintln!(
-                            "ERROR recorder: rerun logging failed (further failures counted): {e:#}"
-                        );
+                        error!("rerun logging failed (further failures counted): {e:#}");
                     }
                 }
             }
             Event::InputClosed { id } => {
                 if let Some(sensor) = ports::sensor_of(id.as_str(), ports::FRAME_INPUT_PREFIX) {
-                    eprintln!("WARN recorder: source {sensor} stopped");
+                    warn!(%sensor, "source stopped");
                     stats.source_closed(sensor, now);
                 }
             }
-            Event::Error(e) => eprintln!("WARN recorder: event stream error: {e}"),
+            Event::Error(e) => warn!("event stream error: {e}"),
             _ => {}
         }
-        for (id, n) in events.drain_drop_counts() {
-            eprintln!("WARN recorder: dora dropped {n} message(s) on input {id} (queue full)");
+        for (id, n) in trigait_node_log::warn_drops(&mut events) {
             *stats.input_drops.entry(id.to_string()).or_default() += n;
         }
     }
@@ -143,7 +140,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     let (gait_report, gait_logged) = gait.finish(&rec);
     summary.gait = Some(gait_report);
     if let Err(e) = gait_logged {
-        eprintln!("ERROR recorder: rerun logging of the gait report failed: {e:#}");
+        error!("rerun logging of the gait report failed: {e:#}");
     }
     ring.write(&config.out_dir)
         .context("recorder: writing the trajectory exports")?;
@@ -153,8 +150,8 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     std::fs::write(&path, json).with_context(|| format!("recorder: writing {}", path.display()))?;
     rec.flush_blocking().ok();
     drop(rec);
-    eprintln!(
-        "INFO recorder: {} poses, RMSE {} m, latency p50 {:.2} ms p99 {:.2} ms; wrote {}",
+    info!(
+        "{} poses, RMSE {} m, latency p50 {:.2} ms p99 {:.2} ms; wrote {}",
         summary.sets_fused,
         summary
             .rmse_all_m

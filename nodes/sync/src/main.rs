@@ -15,12 +15,14 @@ use dora_node_api::{
 use std::collections::HashMap;
 
 use eyre::{Context, bail};
+use tracing::{info, warn};
 use trigait_schema::{FrameTiming, Message, NtpExchange, SkeletonFrameMessage, ports};
 use trigait_sync::{AlignedSet, Error as SyncError, SyncBuffer};
 
 use crate::config::Config;
 
 fn main() -> eyre::Result<()> {
+    trigait_node_log::init("sync");
     let config = Config::from_env()?;
     let (node, events) =
         DoraNode::init_from_env().context("sync: connecting to the dora daemon")?;
@@ -141,8 +143,8 @@ pub fn run(
         ntp: DataId::from(ports::NTP_REQUEST.to_owned()),
         timing: DataId::from(ports::FRAME_TIMING.to_owned()),
     };
-    eprintln!(
-        "INFO sync: {} sensors ({}), policy {}",
+    info!(
+        "{} sensors ({}), policy {}",
         sensors.len(),
         sensors.join(", "),
         config.params.policy
@@ -152,6 +154,7 @@ pub fn run(
     let mut last_ntp: Option<i64> = None;
     let mut request_id = 0_u64;
     while let Some(event) = events.recv() {
+        trigait_node_log::warn_drops(&mut events);
         match event {
             Event::Input { id, metadata, data } => {
                 let id = id.as_str();
@@ -189,28 +192,28 @@ pub fn run(
                         Ok(e) if e.sensor_id == sensor => e.completed(now),
                         Ok(e) => {
                             counters.malformed += 1;
-                            eprintln!(
-                                "WARN sync: input {id:?} carried an NTP reply of sensor {:?}; skipped",
-                                e.sensor_id
+                            warn!(
+                                input = id,
+                                "skipping an NTP reply of sensor {:?}", e.sensor_id
                             );
                             continue;
                         }
                         Err(e) => {
                             counters.malformed += 1;
-                            eprintln!("WARN sync: skipping a malformed NTP reply on {id:?}: {e}");
+                            warn!(input = id, "skipping a malformed NTP reply: {e}");
                             continue;
                         }
                     };
                     let Some(sample) = exchange.sample() else {
                         counters.malformed += 1;
-                        eprintln!("WARN sync: NTP reply on {id:?} lacks t2/t3; skipped");
+                        warn!(input = id, "skipping an NTP reply without t2/t3");
                         continue;
                     };
                     match buffer.push_ntp(sensor, sample) {
                         Ok(_) => counters.ntp_replies += 1,
                         Err(e) => {
                             counters.malformed += 1;
-                            eprintln!("WARN sync: NTP reply on {id:?} refused: {e}");
+                            warn!(input = id, "NTP reply refused: {e}");
                         }
                     }
                 } else if let Some(sensor) = ports::sensor_of(id, ports::FRAME_INPUT_PREFIX) {
@@ -218,15 +221,15 @@ pub fn run(
                         Ok(m) if m.frame.sensor_id == sensor => m.frame,
                         Ok(m) => {
                             counters.malformed += 1;
-                            eprintln!(
-                                "WARN sync: input {id:?} carried a frame of sensor {:?}; skipped",
-                                m.frame.sensor_id
+                            warn!(
+                                input = id,
+                                "skipping a frame of sensor {:?}", m.frame.sensor_id
                             );
                             continue;
                         }
                         Err(e) => {
                             counters.malformed += 1;
-                            eprintln!("WARN sync: skipping a malformed frame on {id:?}: {e}");
+                            warn!(input = id, "skipping a malformed frame: {e}");
                             continue;
                         }
                     };
@@ -247,30 +250,28 @@ pub fn run(
                         Err(SyncError::NotSynchronised { .. }) => counters.frames_dropped += 1,
                         Err(e) => {
                             counters.frames_dropped += 1;
-                            eprintln!("WARN sync: frame dropped: {e}");
+                            warn!("frame dropped: {e}");
                         }
                     }
                 } else {
-                    eprintln!("WARN sync: ignoring unknown input {id:?}");
+                    warn!(input = id, "ignoring an unknown input");
                 }
             }
             Event::InputClosed { id } => {
                 if let Some(sensor) = ports::sensor_of(id.as_str(), ports::FRAME_INPUT_PREFIX) {
-                    eprintln!(
-                        "WARN sync: source {sensor} stopped; its sets go out incomplete from now on"
-                    );
+                    warn!(%sensor, "source stopped; its sets go out incomplete from now on");
                 }
             }
             Event::Stop(_) => {}
-            Event::Error(e) => eprintln!("WARN sync: event stream error: {e}"),
+            Event::Error(e) => warn!("event stream error: {e}"),
             _ => {}
         }
     }
     let sets: Vec<AlignedSet> = buffer.flush().collect();
     emit(&mut node, &out, sets, now_nanos(), &mut counters)?;
     let c = buffer.counters();
-    eprintln!(
-        "INFO sync: frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; NTP in {} rejected {} steps {}; sets {} ({} incomplete, {} empty)",
+    info!(
+        "frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; NTP in {} rejected {} steps {}; sets {} ({} incomplete, {} empty)",
         c.frames_in,
         c.frames_unsynchronised,
         c.frames_late,

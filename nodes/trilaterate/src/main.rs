@@ -10,6 +10,7 @@ mod tests;
 use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{DoraNode, Event, EventStream};
 use eyre::Context;
+use tracing::{info, warn};
 use trigait_schema::{Message, ports};
 use trigait_sync::AlignedSet;
 
@@ -17,6 +18,7 @@ use crate::config::Config;
 use crate::fuse::Fuser;
 
 fn main() -> eyre::Result<()> {
+    trigait_node_log::init("trilaterate");
     let config = Config::from_env()?;
     let (node, events) =
         DoraNode::init_from_env().context("trilaterate: connecting to the dora daemon")?;
@@ -43,6 +45,7 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
     let mut counters = Counters::default();
     let mut warned_unknown = false;
     while let Some(event) = events.recv() {
+        trigait_node_log::warn_drops(&mut events);
         match event {
             Event::Input { id, metadata, data } => match id.as_str() {
                 ports::ALIGNED_SET => {
@@ -50,15 +53,15 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                         Ok(set) => set,
                         Err(e) => {
                             counters.malformed += 1;
-                            eprintln!("WARN trilaterate: skipping a malformed aligned set: {e}");
+                            warn!("skipping a malformed aligned set: {e}");
                             continue;
                         }
                     };
                     let (pose, unknown) = fuser.fuse(&set);
                     if !unknown.is_empty() && !warned_unknown {
                         warned_unknown = true;
-                        eprintln!(
-                            "WARN trilaterate: sensors {} are not in rig {:?}; their frames are ignored",
+                        warn!(
+                            "sensors {} are not in rig {:?}; their frames are ignored",
                             unknown.join(", "),
                             config.rig.name
                         );
@@ -70,14 +73,14 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                         .context("trilaterate: sending fused_pose")?;
                     counters.poses_sent += 1;
                 }
-                other => eprintln!("WARN trilaterate: ignoring unknown input {other:?}"),
+                other => warn!(input = other, "ignoring an unknown input"),
             },
-            Event::Error(e) => eprintln!("WARN trilaterate: event stream error: {e}"),
+            Event::Error(e) => warn!("event stream error: {e}"),
             _ => {}
         }
     }
-    eprintln!(
-        "INFO trilaterate: {} poses, {} joints fused, {} skipped, {} malformed sets",
+    info!(
+        "{} poses, {} joints fused, {} skipped, {} malformed sets",
         counters.poses_sent, counters.joints_fused, counters.joints_skipped, counters.malformed
     );
     Ok(counters)
