@@ -17,7 +17,7 @@ use std::collections::HashMap;
 use eyre::{Context, bail};
 use tracing::{info, warn};
 use trigait_schema::{FrameTiming, Message, NtpExchange, SkeletonFrameMessage, ports};
-use trigait_sync::{AlignedSet, Error as SyncError, SyncBuffer};
+use trigait_sync::{AlignedSet, Error as SyncError, NtpSchedule, SyncBuffer};
 
 use crate::config::Config;
 
@@ -151,7 +151,8 @@ pub fn run(
     );
     let mut counters = Counters::default();
     let mut timings: Vec<FrameTiming> = Vec::new();
-    let mut last_ntp: Option<i64> = None;
+    // Each sensor's exchange at its own phase of the interval, not all on one tick.
+    let mut ntp_schedule = NtpSchedule::new(sensors.len(), config.ntp_interval_nanos);
     let mut request_id = 0_u64;
     while let Some(event) = events.recv() {
         trigait_node_log::warn_drops(&mut events);
@@ -160,23 +161,17 @@ pub fn run(
                 let id = id.as_str();
                 let now = now_nanos();
                 if id == "tick" {
-                    if last_ntp.is_none_or(|t| now - t >= config.ntp_interval_nanos) {
-                        last_ntp = Some(now);
-                        for sensor in &sensors {
-                            request_id += 1;
-                            let request =
-                                NtpExchange::request(sensor.clone(), request_id, now_nanos());
-                            let array = request.encode().context("encoding an NTP request")?;
-                            let port = match &routes {
-                                NtpRoutes::PerSensor(ports) => {
-                                    ports.get(sensor).unwrap_or(&out.ntp)
-                                }
-                                NtpRoutes::Broadcast => &out.ntp,
-                            };
-                            node.send_output(port.clone(), MetadataParameters::default(), array)
-                                .with_context(|| format!("sync: sending {port}"))?;
-                            counters.ntp_requests += 1;
-                        }
+                    for sensor in ntp_schedule.due(now).into_iter().map(|i| &sensors[i]) {
+                        request_id += 1;
+                        let request = NtpExchange::request(sensor.clone(), request_id, now_nanos());
+                        let array = request.encode().context("encoding an NTP request")?;
+                        let port = match &routes {
+                            NtpRoutes::PerSensor(ports) => ports.get(sensor).unwrap_or(&out.ntp),
+                            NtpRoutes::Broadcast => &out.ntp,
+                        };
+                        node.send_output(port.clone(), MetadataParameters::default(), array)
+                            .with_context(|| format!("sync: sending {port}"))?;
+                        counters.ntp_requests += 1;
                     }
                     let sets: Vec<AlignedSet> = buffer.advance_to(now).collect();
                     emit(&mut node, &out, sets, now, &mut counters)?;

@@ -73,7 +73,8 @@ fn sensors_from_the_graph() {
     assert!(crate::sensors_from_inputs(["tick"].into_iter()).is_err());
 }
 
-/// Timer ticks send one NTP request per sensor per interval; malformed frames and replies,
+/// Timer ticks send one NTP request per sensor per interval, each sensor at its own phase of
+/// the interval (k1 at 0, k2 at 50 ms of 100 ms); malformed frames and replies,
 /// and a frame arriving on another sensor's input, are counted and skipped.
 #[test]
 fn ticks_request_ntp_and_bad_input_is_skipped() {
@@ -85,7 +86,8 @@ fn ticks_request_ntp_and_bad_input_is_skipped() {
                 {"time_offset_secs": 0.01, "type": "Input", "id": "frame_k1", "data": [1, 2]},
                 {"time_offset_secs": 0.02, "type": "Input", "id": "ntp_k2", "data": "garbage"},
                 {"time_offset_secs": 0.03, "type": "Input", "id": "tick", "data": 0},
-                {"time_offset_secs": 0.15, "type": "Input", "id": "tick", "data": 0},
+                {"time_offset_secs": 0.07, "type": "Input", "id": "tick", "data": 0},
+                {"time_offset_secs": 0.13, "type": "Input", "id": "tick", "data": 0},
                 {"time_offset_secs": 0.20, "type": "Stop"}
             ]
         }),
@@ -101,15 +103,15 @@ fn ticks_request_ntp_and_bad_input_is_skipped() {
     )
     .unwrap();
     assert_eq!(counters.malformed, 2);
-    // Ticks at 0 and 150 ms are ≥ 100 ms apart; the one at 30 ms is not.
-    assert_eq!(counters.ntp_requests, 4);
+    // k1 at 0 and 130 ms (due at 100), k2 at 70 ms (due at 50, next at 150); nobody at 30 ms.
+    assert_eq!(counters.ntp_requests, 3);
     assert_eq!(counters.sets_sent, 0, "no frames, no sets");
     let outputs = drain_outputs(&mut rx);
     let requests = outputs
         .iter()
         .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some("ntp_request"))
         .count();
-    assert_eq!(requests, 4);
+    assert_eq!(requests, 3);
 }
 
 /// NTP routing comes from the declared outputs: none per sensor → broadcast; one per sensor →
