@@ -17,13 +17,16 @@ import sys
 
 
 def data_input(name: str, source: str, queue_size: int) -> str:
-    """An input on a data edge: lossless (`queue_policy: backpressure`).
+    """An input on a result edge: lossless (`queue_policy: backpressure`).
 
     dora 1.1 sends an output straight to its consumers over zenoh once its start-up handshake
     succeeds, and that path drops silently under congestion (dora-rs/dora#3397, #3439): we lost
     seq 2-3 of a run that way. A backpressure consumer pins the producer's output to the daemon
-    path, which queues instead of dropping. NTP edges stay on the fast path: a lost exchange is
-    only a missing sample, and its delay feeds the offset estimate.
+    path, which queues instead of dropping. Only the result chain after `sync` (sets, poses,
+    timings) takes it: a source on the daemon path blocks on every send, which delays its NTP
+    replies until the clock filter rejects them (with 8 sensors, only one was synchronised for
+    the first 0.7 s). A lost frame is one sample fewer, which sync tolerates and the recorder
+    counts (`frames_lost`); a lost exchange likewise.
     """
     return (
         f"      {name}:\n        source: {source}\n        queue_size: {queue_size}\n"
@@ -83,14 +86,19 @@ def main() -> int:
     n = args.sensors
     root = args.root
     ids = [f"k{i + 1}" for i in range(n)]
+    # Frame queues hold a few seconds' worth (default 10): at start-up the consumers are still
+    # setting up (the recorder opens its recording) while every source already sends.
     sync_inputs = "".join(
-        data_input(f"frame_{s}", f"{s}/frame", 100) + f"      ntp_{s}: {s}/ntp_reply\n" for s in ids
+        f"      frame_{s}:\n        source: {s}/frame\n        queue_size: 100\n      ntp_{s}: {s}/ntp_reply\n"
+        for s in ids
     )
     # One NTP request output per source: a request reaches only its sensor (see the sync node).
     sync_outputs = "".join(f"      - ntp_request_{s}\n" for s in ids)
-    rec_inputs = "".join(data_input(f"frame_{s}", f"{s}/frame", 100) for s in ids)
+    rec_inputs = "".join(f"      frame_{s}:\n        source: {s}/frame\n        queue_size: 100\n" for s in ids)
     if args.backend == "sim":
-        rec_inputs += "".join(data_input(f"truth_{s}", f"{s}/ground_truth", 100) for s in ids)
+        rec_inputs += "".join(
+            f"      truth_{s}:\n        source: {s}/ground_truth\n        queue_size: 1000\n" for s in ids
+        )
     filter_node = ""
     pose_source = "trilaterate"
     if args.filter:

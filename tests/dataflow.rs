@@ -62,6 +62,8 @@ fn check_simulated(run: &Run, sensors: usize, ntp_below_1ms: bool) -> Value {
         );
     }
     assert_eq!(s["frames_in"].as_object().unwrap().len(), sensors);
+    // Sensor edges ride dora's direct path; a frame lost there is reported, not fatal.
+    eprintln!("frames lost per source: {}", s["frames_lost"]);
     let rrd = run.rrd();
     let (temporal, statics) = (&rrd.temporal, &rrd.statics);
     assert_eq!(

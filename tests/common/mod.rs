@@ -115,19 +115,25 @@ impl Run {
         }
     }
 
-    /// No set is lost: no gap in the CSV's set sequence, `summary.json` agrees, and dora reported
-    /// no message dropped at the recorder. The data edges of every graph are
-    /// `queue_policy: backpressure`, which keeps them off dora's lossy direct path.
+    /// No set is lost: no gap in the CSV's set sequence, `summary.json` agrees, and dora
+    /// reported no pose or timing dropped at the recorder. The result edges of every graph
+    /// (sets, poses, timings) are `queue_policy: backpressure`, which keeps them off dora's
+    /// lossy direct path. Raw frames may be dropped on theirs; that is printed, not fatal.
     pub fn assert_no_sets_lost(&self) {
         let missing = self.missing_sets();
         assert!(missing.is_empty(), "sets lost: {missing:?}");
         let s = self.summary();
         assert_eq!(s["dropped_sets"].as_u64(), Some(0), "summary: {s:#}");
-        let drops = &s["input_drops"];
+        let drops = s["input_drops"]
+            .as_object()
+            .expect("input_drops in summary.json");
         assert!(
-            drops.as_object().is_some_and(|d| d.is_empty()),
-            "dora dropped recorder inputs: {drops}"
+            drops.keys().all(|input| input.starts_with("frame_k")),
+            "dora dropped recorder results: {drops:?}"
         );
+        if !drops.is_empty() {
+            eprintln!("raw frames dora dropped at the recorder: {drops:?}");
+        }
     }
 
     /// The `.rrd` read back once (one Python start per run).

@@ -79,6 +79,8 @@ pub struct Gap {
 pub struct Summary {
     /// Raw frames received per source.
     pub frames_in: BTreeMap<String, u64>,
+    /// Frames a source sent that never arrived (gaps in its frame sequence numbers).
+    pub frames_lost: BTreeMap<String, u64>,
     /// Fused poses received.
     pub sets_fused: u64,
     /// Sets never received (gaps in the set sequence).
@@ -356,6 +358,11 @@ impl Stats {
                 .frames
                 .iter()
                 .map(|(k, f)| (k.clone(), f.count))
+                .collect(),
+            frames_lost: self
+                .frames
+                .iter()
+                .map(|(k, f)| (k.clone(), f.seq_gaps))
                 .collect(),
             sets_fused: self.sets,
             dropped_sets: self.dropped_sets,

@@ -172,7 +172,8 @@ fn summary_scores_and_counts() {
             true_stamp_nanos: Some(2_000_000_000),
         },
     ]);
-    for (seq, t) in [(0, 0), (1, 33_000_000), (2, 400_000_000)] {
+    // Frames 2 and 3 of k1 never arrive.
+    for (seq, t) in [(0, 0), (1, 33_000_000), (4, 400_000_000)] {
         stats.push_frame("k1", seq, t);
     }
     let s = stats.summary(1_000_000_000);
@@ -197,6 +198,7 @@ fn summary_scores_and_counts() {
             .any(|g| g.until_end && (g.duration_secs - 0.6).abs() < 1e-9)
     );
     assert_eq!(s.frames_in["k1"], 3);
+    assert_eq!(s.frames_lost["k1"], 2);
 }
 
 /// Percentiles of nothing are zeros, of one value that value.
