@@ -23,7 +23,8 @@ import json, sys
 s = json.load(open(sys.argv[1]))
 print()
 print("trigait summary (out/summary.json)")
-print(f"  frames in        : {', '.join(f'{k} {v}' for k, v in s['frames_in'].items())}")
+lost = s.get("frames_lost", {})
+print(f"  frames in        : {', '.join(f'{k} {v} (lost {lost.get(k, 0)})' for k, v in s['frames_in'].items())}")
 print(f"  sets fused       : {s['sets_fused']}  (dropped {s['dropped_sets']}, incomplete {s['incomplete_sets']})")
 if s.get("rmse_all_m") is not None:
     print(f"  RMSE vs truth    : {s['rmse_all_m'] * 1000:.1f} mm over {s['truth_samples']} joint samples")
