@@ -374,6 +374,24 @@ fn comparison() {
     assert!(!c.within(&Tolerances::ISSUE_5));
 }
 
+/// `clip` with every joint missing in `frames` (a tracker dropout).
+fn with_dropout(clip: &MotionClip, frames: std::ops::Range<usize>) -> MotionClip {
+    let joints = clip.joints().to_vec();
+    let positions: Vec<Vec<Option<Point3<f64>>>> = (0..clip.frame_count())
+        .map(|f| {
+            joints
+                .iter()
+                .map(|j| {
+                    (!frames.contains(&f))
+                        .then(|| clip.position(f, *j))
+                        .flatten()
+                })
+                .collect()
+        })
+        .collect();
+    MotionClip::new("dropout", clip.rate_hz(), joints, positions).unwrap()
+}
+
 /// A 0.1 s tracker dropout (3 frames at 30 Hz) in mid-walk is bridged: it is reported as a gap,
 /// but the strides around it survive with the same parameters; with bridging off it splits the
 /// segment and costs strides.
@@ -386,22 +404,7 @@ fn short_dropout_is_bridged() {
     };
     let (clip, _) = walk.build();
     let reference = analyse(&clip, &GaitParams::default()).unwrap();
-    let joints = clip.joints().to_vec();
-    let frames: Vec<Vec<Option<Point3<f64>>>> = (0..clip.frame_count())
-        .map(|f| {
-            joints
-                .iter()
-                .map(|j| {
-                    if (75..78).contains(&f) {
-                        None
-                    } else {
-                        clip.position(f, *j)
-                    }
-                })
-                .collect()
-        })
-        .collect();
-    let dropout = MotionClip::new("dropout", 30.0, joints, frames).unwrap();
+    let dropout = with_dropout(&clip, 75..78);
     let a = analyse(&dropout, &GaitParams::default()).unwrap();
     assert_eq!(a.segments.len(), 1, "{:?}", a.excluded);
     assert_eq!(a.excluded.len(), 1);
@@ -443,22 +446,7 @@ fn dropout_at_a_reversal_is_not_bridged() {
     let (clip, _) = walk.build();
     // The arc starts after 4 m at 1.3 m/s ≈ 3.08 s ≈ frame 92 and lasts ≈ 0.12 s.
     let turn = (4.0 / walk.speed_mps * 30.0) as usize;
-    let joints = clip.joints().to_vec();
-    let frames: Vec<Vec<Option<Point3<f64>>>> = (0..clip.frame_count())
-        .map(|f| {
-            joints
-                .iter()
-                .map(|j| {
-                    if (turn..turn + 3).contains(&f) {
-                        None
-                    } else {
-                        clip.position(f, *j)
-                    }
-                })
-                .collect()
-        })
-        .collect();
-    let dropped = MotionClip::new("reversal dropout", 30.0, joints, frames).unwrap();
+    let dropped = with_dropout(&clip, turn..turn + 3);
     let a = analyse(&dropped, &GaitParams::default()).unwrap();
     assert_eq!(a.segments.len(), 2, "{:?}", a.excluded);
     let (d0, d1) = (a.segments[0].direction, a.segments[1].direction);
