@@ -22,7 +22,7 @@ def data_input(name: str, source: str, queue_size: int) -> str:
     dora 1.1 sends an output straight to its consumers over zenoh once its start-up handshake
     succeeds, and that path drops silently under congestion (dora-rs/dora#3397, #3439): we lost
     seq 2-3 of a run that way. A backpressure consumer pins the producer's output to the daemon
-    path, which queues instead of dropping. Only the result chain after `sync` (sets, poses,
+    path, which queues (up to 10 x queue_size, then drops with an error) instead. Only the result chain after `sync` (sets, poses,
     timings) takes it: a source on the daemon path blocks on every send, which delays its NTP
     replies until the clock filter rejects them (with 8 sensors, only one was synchronised for
     the first 0.7 s). A lost frame is one sample fewer, which sync tolerates and the recorder

@@ -44,6 +44,13 @@ fn eval_fusion_rmse() -> f64 {
     report.methods[0].rmse_m
 }
 
+/// Issue 4: latency (frame sent → pose recorded) p50 ≤ 5 ms and p99 ≤ 20 ms on one host.
+fn assert_latency_within_issue_4(s: &Value) {
+    let latency = &s["latency_ms"];
+    assert!(f(&latency["p50"]) <= 5.0, "{latency:#}");
+    assert!(f(&latency["p99"]) <= 20.0, "{latency:#}");
+}
+
 /// Checks shared by every simulated graph: sets flow without drops, every sensor is
 /// synchronised to < 1 ms for ≥ 99 % of its frames, and the recording holds what the summary
 /// counted.
@@ -140,8 +147,7 @@ fn default_graph_meets_acceptance() {
     ] {
         assert!(f(&s["rmse_m"][joint]) < 0.1, "{joint}: {s:#}");
     }
-    assert!(f(&s["latency_ms"]["p50"]) <= 5.0, "{:#}", s["latency_ms"]);
-    assert!(f(&s["latency_ms"]["p99"]) <= 20.0, "{:#}", s["latency_ms"]);
+    assert_latency_within_issue_4(&s);
     let text = std::fs::read_to_string(run.out_dir.join("trajectory.txt")).unwrap();
     let rows = text.lines().filter(|l| !l.starts_with('#')).count();
     assert!(
@@ -166,7 +172,8 @@ fn interpolate_beats_slots() {
 }
 
 /// Five sensors: no code change, only YAML — the same four binaries and build lines as
-/// `dataflow.yml`, two more source blocks — and it runs with no dropped sets.
+/// `dataflow.yml`, two more source blocks — and it runs with no dropped sets within the
+/// latency bounds of issue 4.
 #[test]
 fn five_sensor_graph_differs_only_in_yaml() {
     let load = |file: &str| -> serde_yaml::Value {
@@ -211,11 +218,13 @@ fn five_sensor_graph_differs_only_in_yaml() {
         s["latency_ms"]
     );
     assert!(f(&s["rmse_all_m"]) < 0.05, "{s:#}");
+    assert_latency_within_issue_4(&s);
 }
 
-/// Sixteen sensors at 30 Hz on one host: no code change, every sensor fused and recorded, no
-/// set lost. Latency and NTP error are reported, not asserted: on a 2-core host shared with
-/// other work the 16-sensor p99 depends on what else runs (dataflows/README.md has the numbers).
+/// Sixteen sensors at 30 Hz on one host (issue 4): no code change, every sensor fused and
+/// recorded, no set lost, latency p50 ≤ 5 ms and p99 ≤ 20 ms. The NTP share is reported, not
+/// asserted (the 1 ms bound is asked of `dataflow.yml`). Measured on the 2-core development
+/// machine: p99 4.8–8.0 ms; with a compile running beside it, 100+ ms (dataflows/README.md).
 #[test]
 fn sixteen_sensor_graph_scales() {
     let run = run_graph("dataflows/sixteen-sensors.yml");
@@ -227,6 +236,7 @@ fn sixteen_sensor_graph_scales() {
         s["latency_ms"]
     );
     assert!(f(&s["rmse_all_m"]) < 0.05, "{s:#}");
+    assert_latency_within_issue_4(&s);
 }
 
 /// The replay graph plays both SDK recordings through sync and fusion into the recording.

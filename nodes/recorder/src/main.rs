@@ -132,10 +132,9 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
             Event::Error(e) => warn!("event stream error: {e}"),
             _ => {}
         }
-        for (id, n) in trigait_node_log::warn_drops(&mut events) {
-            *stats.input_drops.entry(id.to_string()).or_default() += n;
-        }
+        count_drops(&mut stats, &mut events);
     }
+    count_drops(&mut stats, &mut events);
     let mut summary = stats.summary(now_nanos());
     let (gait_report, gait_logged) = gait.finish(&rec);
     summary.gait = Some(gait_report);
@@ -161,4 +160,12 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
         path.display()
     );
     Ok(summary)
+}
+
+/// Adds the messages dora dropped on the recorder's inputs since the last call to the summary
+/// (and logs them); called after every event and once more after the last.
+fn count_drops(stats: &mut Stats, events: &mut EventStream) {
+    for (id, n) in trigait_node_log::warn_drops(events) {
+        *stats.input_drops.entry(id.to_string()).or_default() += n;
+    }
 }

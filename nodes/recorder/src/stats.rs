@@ -79,7 +79,8 @@ pub struct Gap {
 pub struct Summary {
     /// Raw frames received per source.
     pub frames_in: BTreeMap<String, u64>,
-    /// Frames a source sent that never arrived (gaps in its frame sequence numbers).
+    /// Frames a source sent that never reached the recorder (gaps in its frame sequence
+    /// numbers, counted from 0). Measured at the recorder's input; `sync` has its own.
     pub frames_lost: BTreeMap<String, u64>,
     /// Fused poses received.
     pub sets_fused: u64,
@@ -229,10 +230,11 @@ impl Stats {
         missing_sensors: Option<i64>,
     ) {
         self.sets += 1;
-        if let Some(last) = self.last_seq
-            && pose.set_seq > last + 1
-        {
-            self.dropped_sets += pose.set_seq - last - 1;
+        match self.last_seq {
+            // Sync numbers its sets from 0: a first pose with seq k means k sets never came.
+            None => self.dropped_sets += pose.set_seq,
+            Some(last) if pose.set_seq > last + 1 => self.dropped_sets += pose.set_seq - last - 1,
+            Some(_) => {}
         }
         self.last_seq = Some(self.last_seq.map_or(pose.set_seq, |l| l.max(pose.set_seq)));
         if missing_sensors.is_some_and(|m| m > 0) {
@@ -303,10 +305,12 @@ impl Stats {
     pub fn push_frame(&mut self, sensor: &str, seq: u64, now_nanos: i64) {
         let f = self.frames.entry(sensor.to_owned()).or_default();
         f.count += 1;
-        if let Some(last) = f.last_seq
-            && seq > last + 1
-        {
-            f.seq_gaps += seq - last - 1;
+        match f.last_seq {
+            // Sources number their frames from 0 and start sending only once every node of the
+            // graph is up, so a first frame with seq k means k frames never arrived.
+            None => f.seq_gaps += seq,
+            Some(last) if seq > last + 1 => f.seq_gaps += seq - last - 1,
+            Some(_) => {}
         }
         f.last_seq = Some(seq);
         if let Some(last) = f.last_arrival_nanos

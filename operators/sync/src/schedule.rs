@@ -24,8 +24,9 @@ impl NtpSchedule {
     }
 
     /// Indices of the sensors whose exchange is due at `now_nanos`, in index order. The first
-    /// call sets the phases (sensor 0 is due at once). A sensor whose turn was missed by more
-    /// than an interval (a stalled tick) is polled once and re-phased, never in a burst.
+    /// call sets the phases (sensor 0 is due at once). A sensor whose turns were missed (a
+    /// stalled tick) is polled once and keeps its phase: the missed turns are skipped, not made
+    /// up in a burst, and the sensors do not end up polled together afterwards.
     pub fn due(&mut self, now_nanos: i64) -> Vec<usize> {
         let n = self.next_due.len() as i64;
         let interval = self.interval_nanos;
@@ -36,12 +37,10 @@ impl NtpSchedule {
             });
             if now_nanos >= next_due {
                 due.push(i);
-                let following = next_due.saturating_add(interval);
-                *next = Some(if following <= now_nanos {
-                    now_nanos.saturating_add(interval)
-                } else {
-                    following
-                });
+                let missed = now_nanos.saturating_sub(next_due) / interval;
+                *next = Some(
+                    next_due.saturating_add(interval.saturating_mul(missed.saturating_add(1))),
+                );
             }
         }
         due
@@ -72,14 +71,18 @@ mod tests {
         assert!(most_per_tick <= 2, "{most_per_tick} polls in one tick");
     }
 
-    /// A stalled tick does not make the missed polls come out in a burst afterwards.
+    /// A stalled tick polls each late sensor once, then every sensor is back on its own phase
+    /// (0, 33 and 67 ms of each 100 ms), not polled together from then on.
     #[test]
-    fn a_stall_polls_each_sensor_once() {
+    fn a_stall_polls_each_sensor_once_and_keeps_the_phases() {
         let mut s = NtpSchedule::new(3, 100_000_000);
         assert_eq!(s.due(0), vec![0]);
         assert_eq!(s.due(1_000_000_000), vec![0, 1, 2]);
         assert!(s.due(1_010_000_000).is_empty());
-        assert_eq!(s.due(1_100_000_000), vec![0, 1, 2]);
+        assert_eq!(s.due(1_040_000_000), vec![1]);
+        assert_eq!(s.due(1_070_000_000), vec![2]);
+        assert_eq!(s.due(1_100_000_000), vec![0]);
+        assert!(s.due(1_120_000_000).is_empty());
     }
 
     /// No sensors, or a zero interval: no panic, sensible output.
