@@ -1,4 +1,5 @@
-//! Whole-graph tests: every graph runs headless with `dora run <graph> --stop-after 12s` (the
+//! Whole-graph tests: every graph runs headless with `dora run <graph> --stop-after 12s` (24 s
+//! for `dataflow.yml`, see `common::run_graph`; the
 //! dora CLI from `pip install dora-rs-cli==1.1.0`, which `scripts/test.sh` puts in `.venv/`),
 //! then its `summary.json` is checked against the acceptance of issue 4 and its `.rrd` is read
 //! back with rerun-sdk 0.36.3 (`scripts/rrd_rows.py`): entity paths and row counts.
