@@ -238,7 +238,7 @@ pub fn run_graph(file: &str) -> Run {
     let name = file.replace(['/', '.'], "-");
     // `dataflow.yml` carries the RMSE acceptance (within 1.2x of `trigait eval`): over 12 s,
     // 2.4 laps of the 5 s walker, which part of a lap the run ends in moved the RMSE between
-    // 20.2 and 25.9 mm (eval: 19.0); over 24 s, ten runs stayed within 20.6-21.8 mm.
+    // 20.2 and 25.9 mm in ten runs (eval: 19.0); five 24 s runs stayed within 20.6-21.8 mm.
     let stop_after = if file == "dataflow.yml" { "24s" } else { "12s" };
     let (child, dir) = spawn_graph(&name, &graph, stop_after);
     let run = finish(child, dir);
