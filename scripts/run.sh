@@ -36,6 +36,8 @@ for k, n in s["ntp"].items():
           f"|error| p50 {e['p50']:.3f} ms p99 {e['p99']:.3f} ms, {100 * n['share_below_1ms']:.1f} % < 1 ms")
 l = s["latency_ms"]
 print(f"  latency          : p50 {l['p50']:.2f} ms, p99 {l['p99']:.2f} ms (frame sent -> pose recorded)")
+w = s["warmup"]
+print(f"  warm-up          : {w['poses']} poses in the first {w['secs']:g} s, latency max {w['latency_ms']['max']:.1f} ms (not in the above)")
 a = s["age_ms"]
 print(f"  pose age         : p50 {a['p50']:.1f} ms, p99 {a['p99']:.1f} ms (fusion instant -> recorded)")
 print(f"  gaps             : {len(s['gaps'])}")

@@ -7,6 +7,7 @@
 //! | `RERUN_CONNECT` | gRPC url | none | also stream to a running viewer (`rerun+http://127.0.0.1:9876/proxy`); never blocks when none is there |
 //! | `RIG` | `thesis`, `ring-N` or YAML path | `thesis` | sensor poses drawn as axes and frusta |
 //! | `RING_CAPACITY` | integer | `1000` | positions kept per joint (thesis: 1000) for the text/CSV export |
+//! | `WARMUP_SECS` | seconds ≥ 0 | `1` | poses this soon after the first are warm-up: their latency is reported apart from the steady state (`summary.json`: `warmup`) |
 //!
 //! Inputs: `fused_pose`, `frame_timing`, and per source `frame_<id>` (raw joints) and
 //! `truth_<id>` (ground truth of simulated sources).
@@ -14,7 +15,7 @@
 use std::path::PathBuf;
 
 use eyre::{bail, eyre};
-use trigait_node_config::env_value;
+use trigait_node_config::{env_number_where, env_value};
 use trigait_rig::Rig;
 
 /// Env var: output directory.
@@ -27,6 +28,8 @@ pub const RERUN_CONNECT: &str = "RERUN_CONNECT";
 pub const RIG: &str = "RIG";
 /// Env var: ring capacity.
 pub const RING_CAPACITY: &str = "RING_CAPACITY";
+/// Env var: warm-up length.
+pub const WARMUP_SECS: &str = "WARMUP_SECS";
 
 const NODE: &str = "recorder";
 
@@ -43,6 +46,8 @@ pub struct Config {
     pub rig: Rig,
     /// Positions kept per joint.
     pub ring_capacity: usize,
+    /// Warm-up after the first pose, ns ([`crate::stats::Stats::new`]).
+    pub warmup_nanos: i64,
 }
 
 impl Config {
@@ -80,12 +85,21 @@ impl Config {
             "a positive integer",
         )?
         .unwrap_or(1000);
+        let warmup_secs = env_number_where(
+            NODE,
+            &lookup,
+            WARMUP_SECS,
+            1.0,
+            |s| (0.0..=3600.0).contains(&s),
+            "seconds between 0 and 3600",
+        )?;
         Ok(Config {
             out_dir,
             rrd,
             connect,
             rig,
             ring_capacity,
+            warmup_nanos: (warmup_secs * 1e9).round() as i64,
         })
     }
 }

@@ -42,7 +42,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     viz::send_blueprint(&rec).context("recorder: sending the default blueprint")?;
     viz::log_static(&rec, &config.rig).context("recorder: logging the rig")?;
     let mut gait = gait::Gait::new(&rec).context("recorder: logging the gait styles")?;
-    let mut stats = Stats::default();
+    let mut stats = Stats::new(config.warmup_nanos);
     let mut ring = Ring::new(config.ring_capacity);
     let mut rerun_errors = 0_u64;
     while let Some(event) = events.recv() {
@@ -59,13 +59,16 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                                 .keys()
                                 .filter_map(|j| stats.truth_at(*j, pose.stamp_nanos))
                                 .collect();
-                            let logged = viz::log_pose(&rec, &pose, &truth)
+                            let sent =
+                                get_integer_param(&metadata.parameters, ports::TRIGGER_SENT_NANOS);
+                            let latency = sent.map(|sent| now - sent);
+                            let logged = viz::log_pose(&rec, &pose, &truth, latency)
                                 .and_then(|()| gait.push(&rec, &pose));
                             ring.push(&pose);
                             stats.push_pose(
                                 pose,
                                 now,
-                                get_integer_param(&metadata.parameters, ports::TRIGGER_SENT_NANOS),
+                                sent,
                                 get_integer_param(&metadata.parameters, ports::MISSING_SENSORS),
                             );
                             logged
@@ -150,7 +153,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     rec.flush_blocking().ok();
     drop(rec);
     info!(
-        "{} poses, RMSE {} m, latency p50 {:.2} ms p99 {:.2} ms; wrote {}",
+        "{} poses, RMSE {} m, latency p50 {:.2} ms p99 {:.2} ms (after warm-up); wrote {}",
         summary.sets_fused,
         summary
             .rmse_all_m

@@ -19,6 +19,10 @@ pub const GAP_NANOS: i64 = 150_000_000;
 /// Running totals.
 #[derive(Debug, Default)]
 pub struct Stats {
+    warmup_nanos: i64,
+    first_pose_nanos: Option<i64>,
+    warmup_poses: u64,
+    warmup_latency_nanos: Vec<i64>,
     truth: BTreeMap<i64, BTreeMap<Joint, Point3<f64>>>,
     pending: VecDeque<FusedPose>,
     sq_err: BTreeMap<Joint, (f64, u64)>,
@@ -106,8 +110,11 @@ pub struct Summary {
     pub poses_without_truth: u64,
     /// NTP mapping error per sensor.
     pub ntp: BTreeMap<String, NtpSummary>,
-    /// End-to-end latency, newest contributing frame sent → pose recorded, ms.
+    /// End-to-end latency in the steady state (after [`Self::warmup`]), newest contributing
+    /// frame sent → pose recorded, ms.
     pub latency_ms: Percentiles,
+    /// The poses of the first moments, whose latency is not the steady state's.
+    pub warmup: Warmup,
     /// Pose age when recorded (recorder clock − fusion instant), ms; includes the wait for the
     /// frame after the instant that interpolation needs.
     pub age_ms: Percentiles,
@@ -120,6 +127,20 @@ pub struct Summary {
     /// Gait events and spatiotemporal parameters of the fused walk ([`crate::gait`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gait: Option<trigait_gait::LiveReport>,
+}
+
+/// The start of a run, reported apart: on their first messages dora opens its daemon-path
+/// connections and zenoh its routes, and `sync` works through the frames that queued while it
+/// started, so the first poses come late (about 100 ms at 16 sensors on 2 cores) whatever the
+/// steady-state latency is.
+#[derive(Debug, Clone, Serialize)]
+pub struct Warmup {
+    /// Its length after the first pose, seconds (`WARMUP_SECS`).
+    pub secs: f64,
+    /// Poses recorded in it.
+    pub poses: u64,
+    /// Their end-to-end latency, ms.
+    pub latency_ms: Percentiles,
 }
 
 /// NTP error of one sensor.
@@ -175,6 +196,15 @@ impl Percentiles {
 }
 
 impl Stats {
+    /// Totals whose latency percentiles leave out the poses recorded less than `warmup_nanos`
+    /// after the first ([`Warmup`]).
+    pub fn new(warmup_nanos: i64) -> Self {
+        Self {
+            warmup_nanos,
+            ..Self::default()
+        }
+    }
+
     /// Ground truth rows (world frame, `local_stamp_nanos` = true instant).
     ///
     /// Every simulated source sends the same world truth, so all but the first copy of an instant
@@ -240,8 +270,15 @@ impl Stats {
         if missing_sensors.is_some_and(|m| m > 0) {
             self.incomplete_sets += 1;
         }
+        let first = *self.first_pose_nanos.get_or_insert(now_nanos);
+        let warming_up = now_nanos - first < self.warmup_nanos;
+        self.warmup_poses += u64::from(warming_up);
         if let Some(sent) = trigger_sent_nanos {
-            self.latency_nanos.push(now_nanos - sent);
+            if warming_up {
+                self.warmup_latency_nanos.push(now_nanos - sent);
+            } else {
+                self.latency_nanos.push(now_nanos - sent);
+            }
         }
         self.age_nanos.push(now_nanos - pose.stamp_nanos);
         self.joints_fused += pose.joints.len() as u64;
@@ -408,6 +445,11 @@ impl Stats {
                 })
                 .collect(),
             latency_ms: Percentiles::of_nanos(&self.latency_nanos),
+            warmup: Warmup {
+                secs: self.warmup_nanos as f64 * 1e-9,
+                poses: self.warmup_poses,
+                latency_ms: Percentiles::of_nanos(&self.warmup_latency_nanos),
+            },
             age_ms: Percentiles::of_nanos(&self.age_nanos),
             gaps,
             malformed_inputs: self.malformed,

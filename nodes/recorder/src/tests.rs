@@ -23,6 +23,7 @@ fn config_defaults_and_errors() {
     assert_eq!(c.rrd.unwrap(), std::path::Path::new("out/trigait.rrd"));
     assert!(c.connect.is_none());
     assert_eq!(c.ring_capacity, 1000);
+    assert_eq!(c.warmup_nanos, 1_000_000_000);
     assert!(
         Config::from_lookup(lookup(&[("RRD", "none")]))
             .unwrap()
@@ -33,6 +34,7 @@ fn config_defaults_and_errors() {
         ("RING_CAPACITY", "0"),
         ("RERUN_CONNECT", "localhost:9876"),
         ("RIG", "ring-2"),
+        ("WARMUP_SECS", "-1"),
     ] {
         let text = chain(&Config::from_lookup(lookup(&[(key, raw)])).unwrap_err());
         assert!(
@@ -177,6 +179,7 @@ fn summary_scores_and_counts() {
         stats.push_frame("k1", seq, t);
     }
     let s = stats.summary(1_000_000_000);
+    assert_eq!((s.warmup.poses, s.warmup.latency_ms.count), (0, 0));
     assert_eq!(s.sets_fused, 3);
     assert_eq!(s.dropped_sets, 1);
     assert_eq!(s.incomplete_sets, 1);
@@ -259,4 +262,32 @@ fn empty_run_writes_outputs() {
     assert!(dir.join("trajectory.txt").exists() && dir.join("trajectory.csv").exists());
     assert!(std::fs::metadata(dir.join("trigait.rrd")).unwrap().len() > 0);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Poses recorded within the warm-up after the first go to `warmup`, the rest to `latency_ms`;
+/// a pose without a sent time counts as a pose but has no latency.
+#[test]
+fn warmup_latency_is_reported_apart() {
+    let mut stats = Stats::new(1_000_000_000);
+    let ms = 1_000_000;
+    // A slow start: 120 ms, then 2 ms. The warm-up runs from the first pose's recording (at
+    // 120 ms): 1119 ms is still in it, 1120 ms is not.
+    stats.push_pose(pose(0, 0, 0.0), 120 * ms, Some(0), Some(3));
+    stats.push_pose(pose(1, 33 * ms, 0.0), 1119 * ms, Some(1117 * ms), Some(0));
+    stats.push_pose(pose(2, 66 * ms, 0.0), 1120 * ms, None, Some(0));
+    for (seq, at) in [(3, 1200), (4, 1300)] {
+        stats.push_pose(
+            pose(seq, at * ms, 0.0),
+            (at + 3) * ms,
+            Some(at * ms),
+            Some(0),
+        );
+    }
+    let s = stats.summary(2_000 * ms);
+    assert_eq!(s.warmup.poses, 2);
+    assert_eq!(s.warmup.latency_ms.count, 2);
+    assert!((s.warmup.latency_ms.max - 120.0).abs() < 1e-9);
+    assert_eq!(s.latency_ms.count, 2);
+    assert!((s.latency_ms.max - 3.0).abs() < 1e-9, "{:?}", s.latency_ms);
+    assert!((s.warmup.secs - 1.0).abs() < 1e-12);
 }

@@ -6,7 +6,8 @@
 //! Entity paths:
 //! - `world/sensors/<id>` (transform), `…/<id>/frustum` (pinhole), `…/<id>/joints` (raw);
 //! - `world/fused` (points with keypoint ids), `world/fused_bones` (line strips), `world/truth`;
-//! - `plots/<joint>/{x,y,z}`, `sync/offset_ms/<id>`, `sync/error_ms/<id>`.
+//! - `plots/<joint>/{x,y,z}`, `sync/offset_ms/<id>`, `sync/error_ms/<id>`;
+//! - `timing/latency_ms` (end to end, per pose: newest contributing frame sent → recorded).
 //!
 //! Timelines: `server_time` (ns since the epoch, server clock) and `set` (aligned-set seq).
 //! The layout the viewer opens with is [`send_blueprint`].
@@ -25,6 +26,8 @@ pub const SERVER_TIME: &str = "server_time";
 pub const SET: &str = "set";
 /// Entity of the fused skeleton.
 pub const FUSED: &str = "world/fused";
+/// Entity of the end-to-end latency series.
+pub const LATENCY: &str = "timing/latency_ms";
 
 fn f32x3(p: &nalgebra::Point3<f64>) -> [f32; 3] {
     [p.x as f32, p.y as f32, p.z as f32]
@@ -89,8 +92,11 @@ pub fn send_blueprint(rec: &RecordingStream) -> eyre::Result<()> {
         TimeSeriesView::new("clock sync (ms)")
             .with_origin("sync")
             .into(),
+        TimeSeriesView::new("latency (ms)")
+            .with_origin("timing")
+            .into(),
     ])
-    .with_row_shares([2.0, 1.0, 1.0])
+    .with_row_shares([2.0, 1.0, 1.0, 1.0])
     .into();
     Blueprint::new(Horizontal::new([scene, plots]).with_column_shares([3.0, 2.0]))
         .with_time_panel(TimePanel::new().with_timeline(SERVER_TIME))
@@ -168,6 +174,7 @@ pub fn log_pose(
     rec: &RecordingStream,
     pose: &FusedPose,
     truth: &[nalgebra::Point3<f64>],
+    latency_nanos: Option<i64>,
 ) -> eyre::Result<()> {
     rec.set_timestamp_nanos_since_epoch(SERVER_TIME, pose.stamp_nanos);
     rec.set_time_sequence(SET, i64::try_from(pose.set_seq).unwrap_or(i64::MAX));
@@ -207,6 +214,9 @@ pub fn log_pose(
                 &rerun::Scalars::single(*v),
             )?;
         }
+    }
+    if let Some(latency) = latency_nanos {
+        rec.log(LATENCY, &rerun::Scalars::single(latency as f64 * 1e-6))?;
     }
     Ok(())
 }

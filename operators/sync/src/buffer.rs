@@ -84,7 +84,7 @@ pub struct SyncCounters {
     pub frames_in: u64,
     /// Frames from a sensor id the buffer was not built with (dropped).
     pub frames_unknown_sensor: u64,
-    /// Frames before their sensor's first accepted NTP sample (dropped).
+    /// Frames before their sensor's clock filter was synchronised (dropped).
     pub frames_unsynchronised: u64,
     /// Frames whose `seq` was already buffered (dropped).
     pub frames_duplicate: u64,

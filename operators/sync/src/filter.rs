@@ -40,7 +40,11 @@ pub struct ClockFilterParams {
     pub window_len: usize,
     /// Fraction of the window, lowest delay first, used in the fit (default 0.5).
     pub keep_fraction: f64,
-    /// Fewest samples used in a fit, if the window has them (default 4).
+    /// Fewest samples used in a fit, if the window has them (default 4). Also the samples a
+    /// filter needs before its first fit: until then it maps nothing (the sensor is not
+    /// synchronised). One start-up exchange that met a busy core is off by up to its d/2 —
+    /// 5 ms has been seen — and would map the first frames with that error; among four, the
+    /// fastest carries the fit.
     pub min_used: usize,
     /// Time the used samples must span before drift is fitted rather than carried over
     /// (default 2 s).
@@ -269,6 +273,8 @@ pub struct ClockFilter {
     drift_prior: Option<(f64, f64)>,
     newest_t1: Option<i64>,
     steps: u64,
+    /// Whether the filter has had a fit: after that a step's shorter window still maps.
+    synchronised: bool,
 }
 
 impl ClockFilter {
@@ -284,6 +290,7 @@ impl ClockFilter {
             drift_prior: None,
             newest_t1: None,
             steps: 0,
+            synchronised: false,
         })
     }
 
@@ -405,6 +412,10 @@ impl ClockFilter {
             self.fit = None;
             return;
         };
+        if !self.synchronised && self.window.len() < p.min_used {
+            return;
+        }
+        self.synchronised = true;
         let mut used: Vec<NtpMeasurement> = self.window.iter().copied().collect();
         used.sort_by_key(|s| (s.delay_nanos, std::cmp::Reverse(s.server_mid_nanos)));
         let keep = ((used.len() as f64 * p.keep_fraction).ceil() as usize)
@@ -487,8 +498,9 @@ impl ClockFilter {
         self.fit = Some(fit);
     }
 
-    /// Server time of the sensor-local instant `local_nanos`, or `None` before the first
-    /// accepted sample. Saturates instead of overflowing for absurd inputs.
+    /// Server time of the sensor-local instant `local_nanos`, or `None` before the filter is
+    /// synchronised ([`ClockFilterParams::min_used`] samples). Saturates instead of overflowing
+    /// for absurd inputs.
     #[must_use]
     pub fn server_from_local(&self, local_nanos: i64) -> Option<ServerTime> {
         let fit = self.fit?;
@@ -509,7 +521,7 @@ impl ClockFilter {
     }
 
     /// Sensor-local time of server instant `server_nanos` (the inverse map), or `None` before the
-    /// first accepted sample.
+    /// filter is synchronised.
     #[must_use]
     pub fn local_from_server(&self, server_nanos: i64) -> Option<i64> {
         let fit = self.fit?;
@@ -519,7 +531,7 @@ impl ClockFilter {
         Some(i64::try_from(local).unwrap_or(if local < 0 { i64::MIN } else { i64::MAX }))
     }
 
-    /// The current estimate, or `None` before the first accepted sample.
+    /// The current estimate, or `None` before the filter is synchronised.
     #[must_use]
     pub fn estimate(&self) -> Option<ClockEstimate> {
         let fit = self.fit?;
@@ -638,6 +650,32 @@ mod tests {
                 .map(|l| (l - local).abs() < 2),
             Some(true)
         );
+    }
+
+    /// A slow start-up exchange alone maps nothing: the filter waits for `min_used` (4)
+    /// samples, and the fast ones then carry the fit instead of the slow one's 5.45 ms error.
+    #[test]
+    fn waits_for_min_used_samples_before_mapping() {
+        let mut f = ClockFilter::new(ClockFilterParams::default()).unwrap();
+        let offset = 10_000_000;
+        // The request waits 11 ms on the way out, the reply takes 0.1 ms: offset +5.45 ms off.
+        let slow = NtpSample {
+            t1: 0,
+            t2: 11_000_000 + offset,
+            t3: 11_010_000 + offset,
+            t4: 11_110_000,
+        };
+        assert!(matches!(f.push(slow), SampleOutcome::Accepted(_)));
+        for k in 1..=3 {
+            assert!(f.server_from_local(offset).is_none(), "after {k} samples");
+            assert!(f.estimate().is_none());
+            let out = f.push(sample(k * 100_000_000, offset, 0.0, 100_000));
+            assert!(matches!(out, SampleOutcome::Accepted(_)), "{out:?}");
+        }
+        let server = 350_000_000;
+        let mapped = f.server_from_local(server + offset).unwrap();
+        assert!((mapped.server_nanos - server).abs() < 50_000, "{mapped:?}");
+        assert!(mapped.uncertainty_nanos < 1_000_000, "{mapped:?}");
     }
 
     /// A sample outside the bounds is rejected as inconsistent; three consistent ones are a step.
