@@ -5,6 +5,7 @@
 //! | `METHOD` | `geometric`, `linear`, `nls`, `fusion` | `fusion` | the estimator |
 //! | `ROBUST` | bool | `false` | wrap it in outlier rejection |
 //! | `RIG` | `thesis`, `ring-N` or a YAML path | `thesis` | sensor poses (must match the sources') |
+//! | `RESAMPLING_WEIGHTS` | bool | `true` | widen each observation's covariance by `sync`'s resampling-error estimate ([`crate::fuse`]) |
 
 use eyre::eyre;
 use trigait_rig::Rig;
@@ -16,6 +17,8 @@ pub const METHOD: &str = "METHOD";
 pub const ROBUST: &str = "ROBUST";
 /// Env var: rig.
 pub const RIG: &str = "RIG";
+/// Env var: resampling weights.
+pub const RESAMPLING_WEIGHTS: &str = "RESAMPLING_WEIGHTS";
 
 const NODE: &str = "trilaterate";
 
@@ -26,6 +29,8 @@ pub struct Config {
     pub params: Params,
     /// The rig.
     pub rig: Rig,
+    /// Whether `sync`'s resampling-error estimate widens the covariances.
+    pub resampling_weights: bool,
 }
 
 impl Config {
@@ -43,21 +48,15 @@ impl Config {
                 Method::ALL.map(Method::name).join(", ")
             )
         })?;
-        let robust = match lookup(ROBUST).as_deref().map(str::trim) {
-            None | Some("false" | "0" | "no") => false,
-            Some("true" | "1" | "yes") => true,
-            Some(other) => {
-                return Err(eyre!(
-                    "{NODE}: {ROBUST}={other:?} is invalid: expected true or false"
-                ));
-            }
-        };
+        let robust = flag(&lookup, ROBUST, false)?;
+        let resampling_weights = flag(&lookup, RESAMPLING_WEIGHTS, true)?;
         let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
         let rig =
             Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
         Ok(Config {
             params: Params::new(method).with_robust(robust),
             rig,
+            resampling_weights,
         })
     }
 
@@ -69,5 +68,17 @@ impl Config {
         } else {
             self.params.method.to_string()
         }
+    }
+}
+
+/// A boolean env var, `default` when unset.
+fn flag(lookup: &impl Fn(&str) -> Option<String>, key: &str, default: bool) -> eyre::Result<bool> {
+    match lookup(key).as_deref().map(str::trim) {
+        None => Ok(default),
+        Some("false" | "0" | "no") => Ok(false),
+        Some("true" | "1" | "yes") => Ok(true),
+        Some(other) => Err(eyre!(
+            "{NODE}: {key}={other:?} is invalid: expected true or false"
+        )),
     }
 }

@@ -1,15 +1,23 @@
 //! One aligned set → one fused pose: per joint, one observation per sensor that saw it
 //! ([`trigait_sim::observation`]: weighted by the Kinect noise model at the reported position,
 //! the same code `trigait eval` runs), then the configured estimator.
+//!
+//! Under `interpolate` a sensor's joint is resampled to the set's instant, and `sync` estimates
+//! the error that adds (`interpolation_error_m`: the local second difference × (t − t₀)(t₁ − t)/2).
+//! The noise model knows nothing of it, so by default that estimate is added to the
+//! observation's covariance as an isotropic σ: a sensor whose frames straddle a heel strike,
+//! where the ankle's velocity turns within a frame, then weighs less than one whose frame lies
+//! close to the instant.
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use nalgebra::Matrix3;
 use trigait_kinect::Sensor;
 use trigait_schema::{FusedJoint, FusedPose};
 use trigait_sim::observation;
 use trigait_skeleton::Joint;
 use trigait_sync::AlignedSet;
-use trigait_trilateration::{Error as EstimateError, Params, estimate};
+use trigait_trilateration::{Error as EstimateError, Observation, Params, estimate};
 
 /// The rig's sensors by id.
 #[derive(Debug, Clone)]
@@ -19,6 +27,8 @@ pub struct Fuser {
     estimator: String,
     /// Every joint any set has carried so far: one missing from a set is reported as skipped.
     seen: BTreeSet<Joint>,
+    /// Whether `sync`'s resampling-error estimate widens the covariance (module docs).
+    weigh_resampling: bool,
 }
 
 impl Fuser {
@@ -35,7 +45,16 @@ impl Fuser {
             params,
             estimator,
             seen: BTreeSet::new(),
+            weigh_resampling: true,
         }
+    }
+
+    /// Whether `sync`'s resampling-error estimate widens each observation's covariance
+    /// (default: yes; module docs).
+    #[must_use]
+    pub fn with_resampling_weights(mut self, weigh: bool) -> Self {
+        self.weigh_resampling = weigh;
+        self
     }
 
     /// Fuses every joint of `set`; a sensor the rig does not know is left out and named in
@@ -64,9 +83,12 @@ impl Fuser {
             let mut ids = Vec::new();
             let mut observations = Vec::new();
             for (id, view) in &set.sensors {
-                let (Some(sensor), Some(sample)) = (
+                let (Some(sensor), Some((index, sample))) = (
                     self.sensors.get(id),
-                    view.joints.iter().find(|s| s.joint == joint),
+                    view.joints
+                        .iter()
+                        .enumerate()
+                        .find(|(_, s)| s.joint == joint),
                 ) else {
                     continue;
                 };
@@ -79,6 +101,20 @@ impl Fuser {
                         .map(|s| s.position_in_kinect)
                 }) else {
                     continue;
+                };
+                let resampling_m = view
+                    .interpolation_error_m
+                    .get(index)
+                    .copied()
+                    .flatten()
+                    .filter(|e| self.weigh_resampling && e.is_finite() && *e > 0.0);
+                let o = match resampling_m {
+                    Some(e) => Observation {
+                        covariance_in_kinect: o.covariance_in_kinect
+                            + Matrix3::identity() * (e * e),
+                        ..o
+                    },
+                    None => o,
                 };
                 observations.push(o);
                 ids.push(id.clone());

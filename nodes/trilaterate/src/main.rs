@@ -40,7 +40,8 @@ pub struct Counters {
 
 /// The event loop.
 pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre::Result<Counters> {
-    let mut fuser = Fuser::new(&config.rig, config.params.clone(), config.estimator_name());
+    let mut fuser = Fuser::new(&config.rig, config.params.clone(), config.estimator_name())
+        .with_resampling_weights(config.resampling_weights);
     let pose_out = DataId::from(ports::FUSED_POSE.to_owned());
     let mut counters = Counters::default();
     let mut warned_unknown = false;

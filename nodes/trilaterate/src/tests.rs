@@ -33,8 +33,13 @@ fn config_errors_name_node_key_and_value() {
     let text = chain(&Config::from_lookup(lookup(&[("METHOD", "kalman")])).unwrap_err());
     assert!(text.starts_with("trilaterate: METHOD=\"kalman\""), "{text}");
     assert!(text.contains("geometric, linear, nls, fusion"), "{text}");
-    let text = chain(&Config::from_lookup(lookup(&[("ROBUST", "maybe")])).unwrap_err());
-    assert!(text.contains("ROBUST") && text.contains("maybe"), "{text}");
+    for key in ["ROBUST", "RESAMPLING_WEIGHTS"] {
+        let text = chain(&Config::from_lookup(lookup(&[(key, "maybe")])).unwrap_err());
+        assert!(
+            text.starts_with("trilaterate: ") && text.contains(key) && text.contains("maybe"),
+            "{text}"
+        );
+    }
     let dir = std::env::temp_dir().join(format!("trigait-trilaterate-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let rig = dir.join("bad-rig.yml");
@@ -120,6 +125,56 @@ fn fuses_and_skips_with_reasons() {
     }
     let (pose, _) = fuser.fuse(&later);
     assert!(pose.skipped[&Joint::AnkleLeft].contains("no sensor saw it"));
+}
+
+/// One sensor's knee is 6 cm off and `sync` says its resampling may be 5 cm off: weighed by
+/// that estimate it pulls the fused knee less than with `RESAMPLING_WEIGHTS=false`, and the
+/// covariance says so.
+#[test]
+fn resampling_error_widens_the_covariance() {
+    let rig = Rig::from_spec("thesis").unwrap();
+    let knee = Point3::new(0.3, 0.1, 0.5);
+    let mut sensors = BTreeMap::new();
+    for (i, s) in rig.sensors.iter().enumerate() {
+        let (seen, error) = if i == 0 {
+            (knee + nalgebra::Vector3::new(0.06, 0.0, 0.0), 0.05)
+        } else {
+            (knee, 0.002)
+        };
+        let mut v = view(vec![JointSample {
+            joint: Joint::KneeLeft,
+            position_in_kinect: s.world_from_kinect.inverse_transform_point(&seen),
+            state: TrackingState::Tracked,
+        }]);
+        v.interpolation_error_m = vec![Some(error)];
+        sensors.insert(s.id.clone(), v);
+    }
+    let set = AlignedSet {
+        seq: 0,
+        stamp_nanos: 0,
+        policy: Policy::Interpolate,
+        sensors,
+        missing: vec![],
+        time_uncertainty_nanos: 0,
+    };
+    let on = Config::from_lookup(lookup(&[])).unwrap();
+    assert!(on.resampling_weights);
+    let off = Config::from_lookup(lookup(&[("RESAMPLING_WEIGHTS", "false")])).unwrap();
+    let fuse = |c: &Config| {
+        Fuser::new(&c.rig, c.params.clone(), c.estimator_name())
+            .with_resampling_weights(c.resampling_weights)
+            .fuse(&set)
+            .0
+            .joints[&Joint::KneeLeft]
+            .clone()
+    };
+    let (weighed, ignored) = (fuse(&on), fuse(&off));
+    let (e_on, e_off) = (
+        (weighed.position - knee).norm(),
+        (ignored.position - knee).norm(),
+    );
+    assert!(e_on < 0.5 * e_off, "{e_on} vs {e_off}");
+    assert!(weighed.covariance.trace() > ignored.covariance.trace());
 }
 
 /// A set from a sensor the rig does not know is fused without it, and that sensor is named.
