@@ -23,7 +23,7 @@
 use std::path::PathBuf;
 
 use eyre::{bail, eyre};
-use trigait_node_config::{env_number, env_number_where, env_value};
+use trigait_node_config::{env_flag, env_number, env_number_where, env_value};
 
 /// Env var names.
 pub const SENSOR_ID: &str = "SENSOR_ID";
@@ -150,8 +150,7 @@ impl Config {
                         "{NODE}: {REPLAY_SPEED}={other:?} is invalid: expected `realtime` or `fast`"
                     ),
                 },
-                looped: env_value(NODE, &lookup, REPLAY_LOOP, |_| true, "true or false")?
-                    .unwrap_or(true),
+                looped: env_flag(NODE, &lookup, REPLAY_LOOP, true)?,
             },
             "freenect2" => Backend::Freenect2,
             other => bail!(

@@ -8,6 +8,7 @@
 //! | `RESAMPLING_WEIGHTS` | bool | `true` | widen each observation's covariance by `sync`'s resampling-error estimate ([`crate::fuse`]) |
 
 use eyre::eyre;
+use trigait_node_config::env_flag;
 use trigait_rig::Rig;
 use trigait_trilateration::{Method, Params};
 
@@ -48,8 +49,8 @@ impl Config {
                 Method::ALL.map(Method::name).join(", ")
             )
         })?;
-        let robust = flag(&lookup, ROBUST, false)?;
-        let resampling_weights = flag(&lookup, RESAMPLING_WEIGHTS, true)?;
+        let robust = env_flag(NODE, &lookup, ROBUST, false)?;
+        let resampling_weights = env_flag(NODE, &lookup, RESAMPLING_WEIGHTS, true)?;
         let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
         let rig =
             Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
@@ -68,17 +69,5 @@ impl Config {
         } else {
             self.params.method.to_string()
         }
-    }
-}
-
-/// A boolean env var, `default` when unset.
-fn flag(lookup: &impl Fn(&str) -> Option<String>, key: &str, default: bool) -> eyre::Result<bool> {
-    match lookup(key).as_deref().map(str::trim) {
-        None => Ok(default),
-        Some("false" | "0" | "no") => Ok(false),
-        Some("true" | "1" | "yes") => Ok(true),
-        Some(other) => Err(eyre!(
-            "{NODE}: {key}={other:?} is invalid: expected true or false"
-        )),
     }
 }

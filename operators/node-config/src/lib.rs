@@ -76,6 +76,24 @@ pub fn env_number_where(
     Ok(v.unwrap_or(default))
 }
 
+/// `key` as a switch: `true`/`yes`/`1` or `false`/`no`/`0`, `default` when it is not set.
+///
+/// # Errors
+/// As [`env_value`], expecting "true or false", for any other value.
+pub fn env_flag(
+    node: &str,
+    lookup: &impl Fn(&str) -> Option<String>,
+    key: &str,
+    default: bool,
+) -> eyre::Result<bool> {
+    match lookup(key).as_deref().map(str::trim) {
+        None => Ok(default),
+        Some("true" | "yes" | "1") => Ok(true),
+        Some("false" | "no" | "0") => Ok(false),
+        Some(other) => bail!("{node}: {key}={other:?} is invalid: expected true or false"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -112,5 +130,16 @@ mod tests {
         let n: Option<u64> = env_value("node", &lookup, "UNSET", |_| true, "").unwrap();
         assert_eq!(n, None);
         assert!(env_value::<u64>("node", &lookup, "N", |_| true, "a count").is_err());
+    }
+
+    /// Switches: unset gives the default; true/yes/1 and false/no/0; anything else is an error.
+    #[test]
+    fn flags() {
+        let lookup = env(&[("Y", " yes"), ("Z", "0"), ("M", "maybe")]);
+        assert!(env_flag("n", &lookup, "UNSET", true).unwrap());
+        assert!(env_flag("n", &lookup, "Y", false).unwrap());
+        assert!(!env_flag("n", &lookup, "Z", true).unwrap());
+        let err = env_flag("n", &lookup, "M", true).unwrap_err().to_string();
+        assert_eq!(err, r#"n: M="maybe" is invalid: expected true or false"#);
     }
 }
