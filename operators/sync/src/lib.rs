@@ -29,9 +29,13 @@
 //! use trigait_sync::{NtpSample, SyncBuffer, SyncParams};
 //!
 //! let mut sync = SyncBuffer::new(["k1", "k2"], SyncParams::default())?;
-//! // `sync` sent requests at server time 0; each sensor clock is 5 ms ahead, 0.2 ms round trip.
-//! for id in ["k1", "k2"] {
-//!     sync.push_ntp(id, NtpSample { t1: 0, t2: 5_100_000, t3: 5_100_000, t4: 200_000 })?;
+//! // Each sensor clock is 5 ms ahead, 0.2 ms round trip; a clock filter maps once it has four
+//! // exchanges (`ClockFilterParams::min_used`), here in the 0.4 s before the first frame.
+//! for t1 in [-400_000_000, -300_000_000, -200_000_000, -100_000_000] {
+//!     for id in ["k1", "k2"] {
+//!         let (t2, t4) = (t1 + 5_100_000, t1 + 200_000);
+//!         sync.push_ntp(id, NtpSample { t1, t2, t3: t2, t4 })?;
+//!     }
 //! }
 //! let frame = |id: &str, seq: u64, local: i64| SkeletonFrame {
 //!     sensor_id: id.into(),
