@@ -70,7 +70,12 @@ fn check_simulated(run: &Run, sensors: usize, ntp_below_1ms: bool) -> Value {
     let ntp = s["ntp"].as_object().unwrap();
     assert_eq!(ntp.len(), sensors, "{s:#}");
     for (id, n) in ntp {
-        assert!(n["frames_checked"].as_u64().unwrap() > 250, "{id}: {n:#}");
+        // Synchronised for most of the run. At 16 sensors on 2 cores start-up exchanges are
+        // slow and rejected for up to 3.5 s (CI: 104 of a sensor's frames before its fourth
+        // accepted exchange), so the bound is half the frames that came in.
+        let checked = n["frames_checked"].as_u64().unwrap();
+        let frames_in = s["frames_in"][id.as_str()].as_u64().unwrap();
+        assert!(checked * 2 > frames_in && checked > 150, "{id}: {n:#}");
         assert!(
             !ntp_below_1ms || f(&n["share_below_1ms"]) >= 0.99,
             "{id}: NTP error ≥ 1 ms too often: {n:#}"

@@ -14,6 +14,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::{LOCK, Run, build_nodes, dora, f, localise, plain_env, workspace};
+use serde_json::Value;
 
 /// Kills the coordinator and daemons when the test ends, also when it fails.
 struct Cluster {
@@ -81,6 +82,30 @@ impl Cluster {
         cluster
     }
 
+    /// The machine whose daemon `pid` descends from (`/proc/<pid>/stat`, parent by parent).
+    fn daemon_of(&self, mut pid: u32) -> Option<&'static str> {
+        let daemons: Vec<(u32, &'static str)> = self.children[1..]
+            .iter()
+            .map(Child::id)
+            .zip(["server", "sensors"])
+            .collect();
+        for _ in 0..16 {
+            if let Some((_, machine)) = daemons.iter().find(|(d, _)| *d == pid) {
+                return Some(machine);
+            }
+            let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+            // `pid (comm) state ppid …`; comm may hold spaces, so split after its `)`.
+            pid = stat
+                .rsplit_once(')')?
+                .1
+                .split_whitespace()
+                .nth(1)?
+                .parse()
+                .ok()?;
+        }
+        None
+    }
+
     fn cli(&self, dir: &Path, args: &[&str]) -> (bool, String) {
         let out = plain_env(&mut Command::new(dora()))
             .current_dir(dir)
@@ -131,7 +156,32 @@ fn multi_machine_graph_runs_on_two_daemons() {
         &["start", "graph.yml", "--name", "trigait-mm", "--detach"],
     );
     assert!(ok, "dora start failed:\n{log}");
-    std::thread::sleep(Duration::from_secs(12));
+    std::thread::sleep(Duration::from_secs(6));
+    // Where each node runs: its process descends from the daemon of its machine.
+    let (ok, nodes) = cluster.cli(
+        &dir,
+        &[
+            "node",
+            "list",
+            "--dataflow",
+            "trigait-mm",
+            "--format",
+            "json",
+        ],
+    );
+    assert!(ok, "dora node list failed:\n{nodes}");
+    let placed: Vec<(String, Option<&str>)> = nodes
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .map(|n| {
+            let pid = n["pid"].as_str().and_then(|p| p.parse().ok()).unwrap_or(0);
+            (
+                n["node"].as_str().unwrap_or_default().to_owned(),
+                cluster.daemon_of(pid),
+            )
+        })
+        .collect();
+    std::thread::sleep(Duration::from_secs(6));
     let (ok, stop_log) = cluster.cli(&dir, &["stop", "trigait-mm", "--grace-duration", "10s"]);
     assert!(ok, "dora stop failed:\n{stop_log}");
     let out_dir = dir.join("out");
@@ -167,18 +217,17 @@ fn multi_machine_graph_runs_on_two_daemons() {
         s["sets_fused"].as_u64()
     );
     // Each node ran on the daemon its machine names.
-    let placed = |machine: &str, node: &str| {
-        let log = std::fs::read_to_string(dir.join(format!("daemon-{machine}.log")))
-            .unwrap_or_default()
-            + &log;
-        log.contains(&format!("{node} on daemon `{machine}`"))
-    };
     for (machine, node) in [
         ("sensors", "k1"),
+        ("sensors", "k2"),
         ("sensors", "k3"),
         ("server", "sync"),
+        ("server", "trilaterate"),
         ("server", "recorder"),
     ] {
-        assert!(placed(machine, node), "{node} not on {machine}:\n{log}");
+        assert!(
+            placed.contains(&(node.to_owned(), Some(machine))),
+            "{node} not on {machine}: {placed:?}\n{nodes}"
+        );
     }
 }
