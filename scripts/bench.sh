@@ -12,7 +12,9 @@ if ! .venv/bin/python -c 'import scipy' 2>/dev/null; then
   .venv/bin/python -m pip install --quiet --disable-pip-version-check 'numpy>=1.26' 'scipy>=1.11'
 fi
 
-cargo build --release --bin trigait
+# The same build line as every script and graph: building `--bin trigait` alone unifies the
+# dependencies' features differently and recompiles them.
+cargo build --release --workspace --all-targets
 target/release/trigait bench --python .venv/bin/python "$@"
 
 if [ "${CRITERION:-0}" = 1 ]; then

@@ -15,11 +15,10 @@ export PATH="$PWD/.venv/bin:$PATH"
 
 echo "==> cargo fmt --check"
 cargo fmt --all -- --check
-# One release build lints and compiles: clippy-driver (with -D warnings) compiles our crates, so
-# the dependencies are built once, not once for `cargo clippy` and again for `cargo test`. The
-# graph tests' `cargo build` inherits the same wrapper and finds everything up to date.
-export RUSTC_WORKSPACE_WRAPPER="$PWD/scripts/clippy-rustc"
-echo "==> cargo build --all-targets with clippy (release; warnings are errors)"
-cargo build --workspace --all-targets --release
+# One release build lints and compiles: .cargo/config.toml makes clippy-driver (with -D warnings)
+# the compiler of our crates, so the dependencies are built once, not once for `cargo clippy` and
+# again for `cargo test`, and the graph tests' `cargo build` finds everything up to date.
+echo "==> release build of everything, linted by clippy (warnings are errors)"
+cargo build --release --workspace --all-targets
 echo "==> cargo test (release)"
 cargo test --workspace --release --no-fail-fast

@@ -1,7 +1,6 @@
 //! Clock synchronisation and aligned-set assembly for several Kinect v2 sensors (thesis §6.4.1,
 //! §6.4.2, §6.4.4 / Fig. 6.10), as pure code: no I/O, no threads, no clock reads. The `sync` node
-//! of the dataflow is a thin adapter around [`SyncBuffer`]; the `trigait` CLI replays recordings
-//! through the same code.
+//! of the dataflow is a thin adapter around [`SyncBuffer`].
 //!
 //! Why it exists: trilateration (thesis ch. 4) combines one joint seen by several sensors *at one
 //! instant*. The sensors run on different PCs with their own clocks, and a Kinect v2 cannot be
