@@ -16,7 +16,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use trigait_depth::io::{list_pngs, read_depth_png, read_mask_png};
 use trigait_depth::panoptic::{FloorCheck, FloorParams, floor_check, read_panoptic_calibration};
-use trigait_depth::render::{MapLegend, render_all};
+use trigait_depth::render::{MapLegend, render_all, with_title};
 use trigait_depth::{MetricsParams, SequenceAnalyzer, SequenceMaps, SequenceReport};
 
 /// Arguments of `trigait depth-metrics`.
@@ -166,7 +166,9 @@ fn progress(len: usize, what: &str) -> eyre::Result<ProgressBar> {
     Ok(bar)
 }
 
+/// Writes every map of `sensor` into `dir` as a PNG titled with the sensor and the metric.
 fn write_maps(
+    sensor: &str,
     maps: &SequenceMaps,
     params: &MetricsParams,
     dir: Option<&Path>,
@@ -178,7 +180,9 @@ fn write_maps(
     let mut written = Vec::new();
     for (image, legend) in render_all(maps, params) {
         let file = dir.join(format!("{}.png", legend.name));
-        image.write_png(&file).wrap_err("writing a map")?;
+        with_title(&image, &format!("{sensor}: {}", legend.title))
+            .write_png(&file)
+            .wrap_err("writing a map")?;
         written.push(WrittenMap { file, legend });
     }
     Ok(written)
@@ -230,7 +234,13 @@ fn sequence(
     let (report, maps) = analyzer
         .report_and_maps()
         .wrap_err("computing the metrics")?;
-    let written = write_maps(&maps, &params, args.out.as_deref())?;
+    let sensor = match files {
+        [one] => one
+            .file_stem()
+            .map_or_else(|| "frame".to_owned(), |s| s.to_string_lossy().into_owned()),
+        _ => format!("{} frames", files.len()),
+    };
+    let written = write_maps(&sensor, &maps, &params, args.out.as_deref())?;
     let rec = open_rrd(args)?;
     log_rrd(rec.as_ref(), "sequence", &report, &maps, &params)?;
     // Dropping the stream flushes the file footer.
@@ -257,9 +267,7 @@ fn sequence(
             100.0 * report.valid_share
         );
         table(&mut out, &report);
-        for w in &written {
-            out += &format!("map written: {}\n", w.file.display());
-        }
+        out += &maps_written(std::slice::from_ref(&written), args.out.as_deref());
         print_text(&out)
     }
 }
@@ -392,7 +400,12 @@ fn multi_sensor(
             &sensor_params,
         )?;
         let dir = args.out.as_ref().map(|o| o.join(format!("sensor_{i:02}")));
-        written.push(write_maps(&maps, &sensor_params, dir.as_deref())?);
+        written.push(write_maps(
+            &format!("sensor {i}"),
+            &maps,
+            &sensor_params,
+            dir.as_deref(),
+        )?);
         reports.push(report);
         frames.push(frame);
         bar.inc(1);
@@ -474,12 +487,28 @@ fn multi_sensor(
         check.sensors.len(),
         check.max_normal_angle_deg
     );
-    for (i, maps) in written.iter().enumerate() {
-        for w in maps {
-            out += &format!("map written (sensor {i}): {}\n", w.file.display());
-        }
-    }
+    out += &maps_written(&written, args.out.as_deref());
     print_text(&out)
+}
+
+/// One line for every map written: how many, where, and which metrics.
+fn maps_written(written: &[Vec<WrittenMap>], dir: Option<&Path>) -> String {
+    let (Some(dir), count) = (dir, written.iter().map(Vec::len).sum::<usize>()) else {
+        return String::new();
+    };
+    let mut names: Vec<&str> = written.iter().flatten().map(|w| w.legend.name).collect();
+    names.sort_unstable();
+    names.dedup();
+    let per = if written.len() > 1 {
+        format!(" in {} sensor folders", written.len())
+    } else {
+        String::new()
+    };
+    format!(
+        "maps: {count} PNG files written to {}{per} ({})\n",
+        dir.display(),
+        names.join(", ")
+    )
 }
 
 fn print_json(value: &impl Serialize) -> eyre::Result<()> {

@@ -17,6 +17,9 @@ use crate::sequence::{MetricsParams, SequenceMaps};
 /// Height of the legend strip below each map, pixels.
 pub const LEGEND_HEIGHT: usize = 30;
 
+/// Height of the title strip [`with_title`] puts above a map, pixels.
+pub const TITLE_HEIGHT: usize = 20;
+
 /// An 8-bit RGB image.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Image {
@@ -115,6 +118,11 @@ fn glyph(ch: char) -> [u8; 5] {
         '>' => [4, 2, 1, 2, 4],
         '/' => [1, 1, 2, 4, 4],
         ' ' => [0; 5],
+        ':' => [0, 2, 0, 2, 0],
+        '_' => [0, 0, 0, 0, 7],
+        ',' => [0, 0, 0, 2, 4],
+        '(' => [1, 2, 2, 2, 1],
+        ')' => [4, 2, 2, 2, 4],
         'A' => [2, 5, 7, 5, 5],
         'B' => [6, 5, 6, 5, 6],
         'C' => [3, 4, 4, 4, 3],
@@ -172,6 +180,9 @@ pub struct ColourScale {
 pub struct MapLegend {
     /// File stem of the image (`<name>.png`).
     pub name: &'static str,
+    /// Its title: what is mapped and in which unit, in the capitals the built-in font draws
+    /// (`MEAN DEPTH (M)`); [`with_title`] draws it above the map with the sensor's name.
+    pub title: &'static str,
     /// What the image shows.
     pub shows: &'static str,
     /// Discrete colours.
@@ -189,6 +200,7 @@ const GREEN: [u8; 3] = [0, 170, 60];
 const YELLOW: [u8; 3] = [240, 200, 0];
 const RED: [u8; 3] = [215, 30, 30];
 const OFF_TARGET: [u8; 3] = [70, 70, 70];
+const OUTSIDE_CONE: [u8; 3] = [30, 30, 46];
 
 fn lerp(a: [u8; 3], b: [u8; 3], t: f64) -> [u8; 3] {
     let t = t.clamp(0.0, 1.0);
@@ -220,6 +232,18 @@ pub fn diverging(t: f64) -> [u8; 3] {
     } else {
         lerp(WHITE, [178, 24, 43], t)
     }
+}
+
+/// `image` with a title strip above it: `title` in white capitals, cut at the image's width.
+/// The map and its legend are unchanged below the strip.
+#[must_use]
+pub fn with_title(image: &Image, title: &str) -> Image {
+    let mut out = Image::new(image.width, image.height + TITLE_HEIGHT, LEGEND_BG);
+    out.rgb[3 * image.width * TITLE_HEIGHT..].copy_from_slice(&image.rgb);
+    let fits = image.width.saturating_sub(12) / 8;
+    let text: String = title.to_ascii_uppercase().chars().take(fits).collect();
+    out.text(6, 5, &text, 2, WHITE);
+    out
 }
 
 fn canvas() -> Image {
@@ -269,11 +293,7 @@ pub fn render_accuracy(map: &AccuracyMap, params: &AccuracyParams) -> (Image, Ma
             Some(Zone::Red) => RED,
             None => OFF_TARGET,
         };
-        let c = if map.in_cone[i] {
-            c
-        } else {
-            lerp(NO_DATA, c, 0.45)
-        };
+        let c = if map.in_cone[i] { c } else { OUTSIDE_CONE };
         img.set(i % WIDTH, i / WIDTH, c);
     }
     for i in 0..PIXELS {
@@ -306,12 +326,14 @@ pub fn render_accuracy(map: &AccuracyMap, params: &AccuracyParams) -> (Image, Ma
             (&GREEN, &g),
             (&YELLOW, &yl),
             (&RED, &r),
-            (&OFF_TARGET, "OFF"),
+            (&OFF_TARGET, "OFF TARGET"),
+            (&OUTSIDE_CONE, "OUTSIDE CONE"),
         ],
     );
     let legend = MapLegend {
         name: "accuracy_zones",
-        shows: "per-pixel |mean depth - true depth| zone (thesis 5.1.1); white outline = 70x60 deg elliptical cone, darker outside it",
+        title: "DEPTH ERROR ZONES (MM)",
+        shows: "per-pixel |mean depth - true depth| zone (thesis 5.1.1) inside the 70x60 deg elliptical cone (white outline); pixels outside the cone are not classified",
         entries: vec![
             LegendEntry {
                 rgb: GREEN,
@@ -333,12 +355,16 @@ pub fn render_accuracy(map: &AccuracyMap, params: &AccuracyParams) -> (Image, Ma
                 meaning: "not on the target plane or no data".into(),
             },
             LegendEntry {
+                rgb: OUTSIDE_CONE,
+                meaning: "outside the elliptical cone: not classified".into(),
+            },
+            LegendEntry {
                 rgb: WHITE,
                 meaning: "outline of the elliptical cone".into(),
             },
         ],
         scale: None,
-        legend_strip: "bottom 30 px: swatches green, yellow, red, off-target with their limits in mm",
+        legend_strip: "bottom 30 px: swatches green, yellow, red with their limits in mm, off target, outside the cone",
     };
     (img, legend)
 }
@@ -367,6 +393,7 @@ pub fn render_entropy(entropy: &[Option<f32>]) -> (Image, MapLegend) {
     bar(&mut img, viridis, "0", &fmt_value(max), "BITS");
     let legend = MapLegend {
         name: "entropy",
+        title: "DEPTH ENTROPY (BITS)",
         shows: "per-pixel entropy of frame-to-frame depth differences, eq. 3.3",
         entries: vec![LegendEntry {
             rgb: NO_DATA,
@@ -414,14 +441,15 @@ pub fn render_edge(classes: &[EdgeClass], depth_mm: &[u16]) -> (Image, MapLegend
     swatches(
         &mut img,
         &[
-            (&RIM, "RIM"),
-            (&BAND, "ZERO"),
-            (&FLYING, "FLY"),
-            (&BG_EDGE, "BG"),
+            (&RIM, "OBJECT RIM"),
+            (&BAND, "NO DATA"),
+            (&FLYING, "FLYING"),
+            (&BG_EDGE, "BACKGROUND"),
         ],
     );
     let legend = MapLegend {
         name: "edge_band",
+        title: "EDGE NOISE (DEPTH IN GREY, 0.5-4.5 M)",
         shows: "edge noise (thesis 3.4): depth in grey 0.5 m (bright) to 4.5 m (dark), black = no data",
         entries: vec![
             LegendEntry {
@@ -446,7 +474,7 @@ pub fn render_edge(classes: &[EdgeClass], depth_mm: &[u16]) -> (Image, MapLegend
             },
         ],
         scale: None,
-        legend_strip: "bottom 30 px: swatches RIM, ZERO, FLY, BG",
+        legend_strip: "bottom 30 px: swatches object rim, no data (the band next to the rim), flying pixel, background next to the rim",
     };
     (img, legend)
 }
@@ -477,6 +505,7 @@ pub fn render_residual(residual_mm: &[f32]) -> (Image, MapLegend) {
     );
     let legend = MapLegend {
         name: "structural_residual",
+        title: "STRUCTURAL NOISE: DEPTH MINUS PLANE (MM)",
         shows: "structural noise (thesis 3.5): mean depth minus fitted plane; black = off the plane or no data",
         entries: vec![LegendEntry {
             rgb: NO_DATA,
@@ -509,6 +538,7 @@ pub fn render_depth(mean_mm: &[f32]) -> (Image, MapLegend) {
     bar(&mut img, viridis, "0.5", "4.5", "M");
     let legend = MapLegend {
         name: "depth",
+        title: "MEAN DEPTH (M)",
         shows: "mean depth over the frames",
         entries: vec![LegendEntry {
             rgb: NO_DATA,
@@ -558,6 +588,29 @@ mod tests {
         assert_eq!(img.get(1, 0), WHITE);
         assert_eq!(img.get(0, 0), NO_DATA);
         assert!((0..3).all(|x| img.get(x, 4) == WHITE));
+    }
+
+    /// A title strip goes above the map, which stays pixel for pixel as it was.
+    #[test]
+    fn title_strip_is_added_above_the_map() {
+        let (img, legend) = render_depth(&vec![1000.0; PIXELS]);
+        let titled = with_title(&img, &format!("k1: {}", legend.title));
+        assert_eq!(titled.height, img.height + TITLE_HEIGHT);
+        assert_eq!(&titled.rgb[3 * WIDTH * TITLE_HEIGHT..], &img.rgb[..]);
+        let strip = &titled.rgb[..3 * WIDTH * TITLE_HEIGHT];
+        assert!(strip.chunks(3).any(|c| c == WHITE), "no title text drawn");
+    }
+
+    /// Outside its cone the accuracy map shows one flat colour, not a dimmed zone.
+    #[test]
+    fn accuracy_map_is_masked_to_its_cone() {
+        let map = AccuracyMap {
+            zones: vec![Some(Zone::Green); PIXELS],
+            in_cone: (0..PIXELS).map(|i| i % WIDTH > WIDTH / 2).collect(),
+        };
+        let (img, _) = render_accuracy(&map, &AccuracyParams::default());
+        assert_eq!(img.get(10, HEIGHT / 2), OUTSIDE_CONE);
+        assert_eq!(img.get(WIDTH - 10, HEIGHT / 2), GREEN);
     }
 
     /// Colour maps hit their anchors at the ends.
