@@ -48,7 +48,8 @@ def source(i: int, args: argparse.Namespace, root: str) -> str:
         files = args.replay_files.split(",")
         env += [f"REPLAY_FILE: {files[i % len(files)]}", "REPLAY_SPEED: realtime"]
     lines = "\n".join(f"      {e}" for e in env)
-    outputs = "[frame, ntp_reply, ground_truth]" if args.backend == "sim" else "[frame, ntp_reply]"
+    # The ground truth is the same world for every simulated source: the rig's first sends it.
+    outputs = "[frame, ntp_reply, ground_truth]" if args.backend == "sim" and i == 0 else "[frame, ntp_reply]"
     return f"""  - id: {sid}
     build: cargo build --release --workspace --all-targets
     path: {root}target/release/trigait-kinect-source-node
@@ -96,9 +97,7 @@ def main() -> int:
     sync_outputs = "".join(f"      - ntp_request_{s}\n" for s in ids)
     rec_inputs = "".join(f"      frame_{s}:\n        source: {s}/frame\n        queue_size: 100\n" for s in ids)
     if args.backend == "sim":
-        rec_inputs += "".join(
-            f"      truth_{s}:\n        source: {s}/ground_truth\n        queue_size: 1000\n" for s in ids
-        )
+        rec_inputs += f"      ground_truth:\n        source: {ids[0]}/ground_truth\n        queue_size: 1000\n"
     filter_node = ""
     pose_source = "trilaterate"
     if args.filter:

@@ -42,5 +42,5 @@ a = s["age_ms"]
 print(f"  pose age         : p50 {a['p50']:.1f} ms, p99 {a['p99']:.1f} ms (fusion instant -> recorded)")
 print(f"  gaps             : {len(s['gaps'])}")
 print("  recording        : out/trigait.rrd  (view: .venv/bin/rerun out/trigait.rrd)")
-print("  exports          : out/trajectory.txt, out/trajectory.csv")
+print("  exports          : out/trajectory.txt (thesis format), out/trajectory.csv/.trc/.c3d (trigait gait/export read them)")
 PY

@@ -140,6 +140,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
 /// walks across the rig (each with its own noise) as it takes.
 fn problems(sim: &Simulator, seed: u64, count: usize) -> Vec<Vec<Observation>> {
     let motion = sim.motion();
+    let fusion = trigait_fusion::FusionRig::from_sensors(sim.sensors().to_vec());
     let mut out = Vec::with_capacity(count);
     for walk in 0..1000 {
         let mut rngs: Vec<_> = (0..sim.sensors().len())
@@ -148,10 +149,13 @@ fn problems(sim: &Simulator, seed: u64, count: usize) -> Vec<Vec<Observation>> {
         let before = out.len();
         for frame in 0..motion.frame_count() {
             let snapshot = sim.snapshot(frame as f64 / motion.rate_hz(), &mut rngs);
+            let mut observed = trigait_eval::observe_snapshot(&fusion, sim, &snapshot);
             for joint in sim.joints() {
-                let (_, obs) = snapshot.observations(sim, *joint);
-                if obs.len() >= 3 && out.len() < count {
-                    out.push(obs);
+                let Some(seen) = observed.joints.remove(joint) else {
+                    continue;
+                };
+                if seen.observations.len() >= 3 && out.len() < count {
+                    out.push(seen.observations);
                 }
             }
         }

@@ -54,14 +54,15 @@ const KINECT_RATE_HZ: f64 = 30.0;
 
 /// The walk as the simulated Kinect pipeline sees it: `motion` (already on the rig's walkway)
 /// observed by every sensor of `rig` at 30 Hz with the Kinect v2 noise model, and each joint
-/// fused by the maximum-likelihood `fusion` estimator. Joints no sensor reports in a frame, or
+/// fused by the maximum-likelihood `fusion` estimator through [`trigait_fusion::fuse_instant`]
+/// (the dataflow's `trilaterate` code). Joints no sensor reports in a frame, or
 /// that the estimator cannot solve, are gaps.
 pub fn simulate_kinect_pipeline(
     motion: &MotionClip,
     rig: &trigait_rig::Rig,
     seed: u64,
 ) -> eyre::Result<MotionClip> {
-    use trigait_trilateration::{Method as Estimator, Params, estimate};
+    use trigait_trilateration::{Method as Estimator, Params};
     let mut joints = Joint::LEGS.to_vec();
     joints.extend([Joint::FootLeft, Joint::FootRight]);
     let sim = trigait_sim::Simulator::new(
@@ -73,16 +74,18 @@ pub fn simulate_kinect_pipeline(
     let mut rngs: Vec<_> = (0..sim.sensors().len())
         .map(|s| trigait_sim::Simulator::sensor_rng(seed, s))
         .collect();
+    let fusion = trigait_fusion::FusionRig::from_sensors(sim.sensors().to_vec());
     let params = Params::new(Estimator::Fusion);
     let frames = (motion.duration_secs() * KINECT_RATE_HZ).floor() as usize + 1;
     let rows = (0..frames)
         .map(|k| {
             let snapshot = sim.snapshot(k as f64 / KINECT_RATE_HZ, &mut rngs);
+            let fused = trigait_eval::fuse_snapshot(&fusion, &sim, &snapshot, &params);
             sim.joints()
                 .iter()
                 .map(|joint| {
-                    let (_, observations) = snapshot.observations(&sim, *joint);
-                    estimate(&observations, &params).ok().map(|e| e.position)
+                    let f = fused.joints.get(joint)?;
+                    f.result.as_ref().ok().map(|e| e.position)
                 })
                 .collect()
         })

@@ -173,8 +173,15 @@ fn default_graph_meets_acceptance() {
         (250..=1000).contains(&rows),
         "{rows} rows: ring of 1000 per joint"
     );
-    let csv = std::fs::read_to_string(run.out_dir.join("trajectory.csv")).unwrap();
-    assert!(csv.starts_with("stamp_nanos,set_seq,joint,x_m"));
+    let clip = run.trajectory();
+    assert!((clip.rate_hz() - 30.0).abs() < 0.1, "{}", clip.rate_hz());
+    let mut legs = trigait_skeleton::Joint::LEGS.to_vec();
+    legs.sort_by_key(|j| j.index());
+    assert_eq!(clip.joints(), legs);
+    for name in ["trajectory.trc", "trajectory.c3d"] {
+        let markers = trigait_motion::read_markers(run.out_dir.join(name)).unwrap();
+        assert_eq!(markers.frame_count(), clip.frame_count(), "{name}");
+    }
 }
 
 /// The thesis slot schedule leaves inter-sensor skew that interpolation removes: on the same

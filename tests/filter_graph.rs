@@ -14,8 +14,6 @@
 
 mod common;
 
-use std::collections::BTreeMap;
-
 use common::{Run, f, run_graph};
 use serde_json::Value;
 
@@ -31,28 +29,22 @@ const WALKER_SPEED_MPS: f64 = 0.70 * 105.0 / 60.0;
 /// 30 Hz), so this is mostly pose jitter; the median ignores the instantaneous turn at each end
 /// of the simulated walkway, which is a real (and equal) jump in both graphs.
 fn hip_jitter_mm(run: &Run) -> (f64, usize) {
-    let path = run.out_dir.join("trajectory.csv");
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut tracks: BTreeMap<String, BTreeMap<u64, [f64; 3]>> = BTreeMap::new();
-    for line in text.lines().skip(1) {
-        let cols: Vec<&str> = line.split(',').collect();
-        if cols.len() < 6 || !cols[2].starts_with("hip_") {
-            continue;
-        }
-        let seq: u64 = cols[1].parse().unwrap();
-        let p = [cols[3], cols[4], cols[5]].map(|v| v.parse::<f64>().unwrap());
-        tracks.entry(cols[2].to_owned()).or_default().insert(seq, p);
-    }
-    assert_eq!(
-        tracks.len(),
-        2,
-        "hip_left and hip_right in {}",
-        path.display()
+    use trigait_skeleton::Joint;
+    let clip = run.trajectory();
+    let hips = [Joint::HipLeft, Joint::HipRight];
+    assert!(
+        hips.iter().all(|j| clip.joints().contains(j)),
+        "hip_left and hip_right in trajectory.csv: {:?}",
+        clip.joints()
     );
     let mut d2 = Vec::new();
-    for track in tracks.values() {
-        for (seq, p) in track {
-            let (Some(a), Some(b)) = (track.get(&(seq + 1)), track.get(&(seq + 2))) else {
+    for joint in hips {
+        for f in 0..clip.frame_count().saturating_sub(2) {
+            let (Some(p), Some(a), Some(b)) = (
+                clip.position(f, joint),
+                clip.position(f + 1, joint),
+                clip.position(f + 2, joint),
+            ) else {
                 continue;
             };
             for k in 0..3 {
@@ -92,13 +84,15 @@ fn filtered_graph_runs_and_poses_reach_the_recorder() {
         Some(sets),
         "{temporal:#?}"
     );
-    let csv = std::fs::read_to_string(run.out_dir.join("trajectory.csv")).unwrap();
-    // The sensors-used column survives the filter: most poses are fused from several sensors
-    // (the first ones may come from one sensor while the others synchronise).
-    let multi = csv.lines().skip(1).filter(|l| l.contains(';')).count();
+    // The sensors used survive the filter: most joints are fused from several sensors (the
+    // first ones may come from one sensor while the others synchronise).
+    let by_count = s["joints_by_sensors_used"].as_object().unwrap();
+    let count = |k: &str| by_count.get(k).and_then(Value::as_u64).unwrap_or(0);
+    let total: u64 = by_count.values().filter_map(Value::as_u64).sum();
+    let multi = total - count("0") - count("1");
     assert!(
-        multi > csv.lines().count() / 2,
-        "{multi} rows fused from several sensors"
+        2 * multi > total,
+        "{multi} of {total} joints fused from several sensors: {s:#}"
     );
 }
 

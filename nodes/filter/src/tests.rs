@@ -99,6 +99,7 @@ fn pose(seq: u64, x: f64) -> FusedPose {
         stamp_nanos: 1_700_000_000_000_000_000 + seq as i64 * 33_333_333,
         joints,
         skipped,
+        missing_sensors: Vec::new(),
     }
 }
 

@@ -17,6 +17,7 @@
 //! | `REPLAY_FILE` | path | required for `replay` | Kinect v2 SDK skeleton text file (either format) |
 //! | `REPLAY_SPEED` | `realtime` or `fast` | `realtime` | play at 30 Hz or as fast as possible |
 //! | `REPLAY_LOOP` | bool | `true` | start over at the end of the file |
+//! | `GROUND_TRUTH` | bool | `true` for the rig's first sensor | send the simulated ground truth on `ground_truth` (one source per graph, so each instant is sent once) |
 //! | `STOP_AFTER_FRAMES` | integer | none | stop after this many frames (tests: a source dying mid-run) |
 //! | `DEPTH_RATE_HZ`, `DEPTH_*` | | off | the optional `depth` output: [`crate::depth`] |
 
@@ -57,6 +58,8 @@ pub const REPLAY_SPEED: &str = "REPLAY_SPEED";
 pub const REPLAY_LOOP: &str = "REPLAY_LOOP";
 /// Env var: stop after N frames.
 pub const STOP_AFTER_FRAMES: &str = "STOP_AFTER_FRAMES";
+/// Env var: whether this simulated source sends the ground truth.
+pub const GROUND_TRUTH: &str = "GROUND_TRUTH";
 
 /// Where frames come from.
 #[derive(Debug, Clone, PartialEq)]
@@ -106,6 +109,8 @@ pub struct Config {
     pub clock_jitter_nanos: f64,
     /// Stop after this many frames.
     pub stop_after_frames: Option<u64>,
+    /// Send the ground truth (`None`: only the rig's first sensor does).
+    pub ground_truth: Option<bool>,
     /// The optional depth output (`None`: off).
     pub depth: Option<crate::depth::DepthConfig>,
 }
@@ -213,6 +218,10 @@ impl Config {
             clock_drift_ppm: drift,
             clock_jitter_nanos: jitter * 1e3,
             stop_after_frames,
+            ground_truth: lookup(GROUND_TRUTH)
+                .is_some()
+                .then(|| env_flag(NODE, &lookup, GROUND_TRUTH, false))
+                .transpose()?,
             depth: crate::depth::DepthConfig::from_lookup(&lookup)?,
         })
     }

@@ -1,6 +1,7 @@
 //! `kinect-source`: one Kinect v2 sensor in the dataflow. Sends a `skeleton_frame` per capture
 //! on `frame` (sensor clock), answers `ntp_request`s addressed to it with its own clock on
-//! `ntp_reply`, and — when simulated — the world-frame ground truth on `ground_truth`.
+//! `ntp_reply`, and — when simulated, from the one source of the graph that sends it (by default
+//! the rig's first sensor) — the world-frame ground truth on `ground_truth`.
 //! Configuration: [`config`].
 
 mod backend;
@@ -15,9 +16,9 @@ use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{DoraNode, Event, EventStream, MetadataParameters, Parameter};
 use eyre::Context;
 use tracing::{info, warn};
-use trigait_schema::{Message, NtpExchange, SkeletonFrameMessage, ports};
+use trigait_schema::{GroundTruth, Message, NtpExchange, SkeletonFrameMessage, ports};
 
-use crate::backend::{Captured, SensorClock, Source, now_nanos};
+use crate::backend::{Captured, Source, now_nanos, sensor_clock};
 use crate::config::Config;
 
 fn main() -> eyre::Result<()> {
@@ -56,11 +57,7 @@ pub fn run(
         .as_ref()
         .map(|d| depth::DepthStream::new(d, &config, now_nanos()))
         .transpose()?;
-    let mut clock = SensorClock::new(
-        &config,
-        now_nanos(),
-        trigait_sim::Simulator::sensor_rng(config.seed ^ 0x5eed_c10c, 0),
-    );
+    let mut clock = sensor_clock(&config, now_nanos());
     let mut counters = Counters::default();
     loop {
         while let Some(due) = source.next_due().filter(|due| *due <= now_nanos()) {
@@ -136,8 +133,8 @@ fn send_capture(
         ports::SENT_NANOS.to_owned(),
         Parameter::Integer(now_nanos()),
     );
-    if let Some(t) = captured.true_nanos {
-        params.insert(ports::TRUE_CAPTURE_NANOS.to_owned(), Parameter::Integer(t));
+    if let Some(t) = captured.true_stamp_nanos {
+        params.insert(ports::TRUE_STAMP_NANOS.to_owned(), Parameter::Integer(t));
     }
     let array = SkeletonFrameMessage::from(captured.frame)
         .encode()
@@ -145,8 +142,7 @@ fn send_capture(
     node.send_output(frame_out.clone(), params, array)
         .context("kinect-source: sending frame")?;
     if !captured.truth.is_empty() {
-        let rows: Vec<SkeletonFrameMessage> = captured.truth.into_iter().map(Into::into).collect();
-        let array = SkeletonFrameMessage::encode_many(&rows).context("encoding ground truth")?;
+        let array = GroundTruth::encode_many(&captured.truth).context("encoding ground truth")?;
         node.send_output(truth_out.clone(), MetadataParameters::default(), array)
             .context("kinect-source: sending ground_truth")?;
     }

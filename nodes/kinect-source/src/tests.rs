@@ -13,8 +13,9 @@ use dora_node_api::serde_json;
 use trigait_node_testing::{chain, init_node, lookup};
 use trigait_schema::{Message, NtpExchange};
 
-use crate::backend::{Source, TRUTH_STEP_NANOS, next_on_grid};
+use crate::backend::{Source, sensor_clock};
 use crate::config::{Backend, Config};
+use trigait_sim::stream::TRUTH_STEP_NANOS;
 
 /// Only SENSOR_ID is required; the defaults are the thesis rig, the simulator and 30 Hz.
 #[test]
@@ -92,28 +93,21 @@ fn freenect2_without_the_feature_is_an_error() {
     }
 }
 
-/// The grid: the first instant at or after `now`, on `phase + k·period`.
-#[test]
-fn capture_grid() {
-    assert_eq!(next_on_grid(100, 30, 5), 125);
-    assert_eq!(next_on_grid(125, 30, 5), 125);
-    assert_eq!(next_on_grid(-7, 30, 5), 5);
-}
-
 /// Simulated captures: 30 Hz on the sensor's phase, stamped by its clock (offset applied),
-/// leg joints in the camera frame, and ground truth every 2 ms with no hole or overlap.
+/// leg joints in the camera frame; `GROUND_TRUTH=true` makes the second sensor send the ground
+/// truth every 2 ms with no hole or overlap (by default only the rig's first does).
 #[test]
 fn simulated_captures() {
     let c = Config::from_lookup(lookup(&[
         ("SENSOR_ID", "k2"),
         ("CLOCK_OFFSET_MILLIS", "-40"),
         ("CLOCK_JITTER_MICROS", "0"),
+        ("GROUND_TRUTH", "true"),
     ]))
     .unwrap();
     let start = 1_700_000_000_000_000_000;
     let mut source = Source::new(&c, start).unwrap();
-    let mut clock =
-        crate::backend::SensorClock::new(&c, start, trigait_sim::Simulator::sensor_rng(1, 0));
+    let mut clock = sensor_clock(&c, start);
     let mut last_truth = None;
     let mut due_prev = None;
     for _ in 0..20 {
@@ -125,15 +119,15 @@ fn simulated_captures() {
         }
         due_prev = Some(due);
         let cap = source.capture(due, &mut clock).unwrap();
-        assert_eq!(cap.true_nanos, Some(due));
+        assert_eq!(cap.true_stamp_nanos, Some(due));
         assert_eq!(cap.frame.local_stamp_nanos - due, -40_000_000);
         assert!(cap.frame.joints.len() >= 4, "{:?}", cap.frame.joints);
         for row in &cap.truth {
             if let Some(l) = last_truth {
-                assert_eq!(row.local_stamp_nanos - l, TRUTH_STEP_NANOS);
+                assert_eq!(row.true_stamp_nanos - l, TRUTH_STEP_NANOS);
             }
-            last_truth = Some(row.local_stamp_nanos);
-            assert_eq!(row.joints.len(), 6);
+            last_truth = Some(row.true_stamp_nanos);
+            assert_eq!(row.position_in_world.len(), 6);
         }
         assert!(last_truth.unwrap() <= due && due - last_truth.unwrap() < TRUTH_STEP_NANOS);
     }
@@ -157,13 +151,12 @@ fn replay_both_formats() {
         ]))
         .unwrap();
         let mut source = Source::new(&c, 0).unwrap();
-        let mut clock =
-            crate::backend::SensorClock::new(&c, 0, trigait_sim::Simulator::sensor_rng(1, 0));
+        let mut clock = sensor_clock(&c, 0);
         let mut seqs = Vec::new();
         for i in 0..frames + 2 {
             let cap = source.capture(i, &mut clock).unwrap();
             assert!(!cap.frame.joints.is_empty());
-            assert!(cap.truth.is_empty() && cap.true_nanos.is_none());
+            assert!(cap.truth.is_empty() && cap.true_stamp_nanos.is_none());
             seqs.push(cap.frame.seq);
         }
         assert_eq!(seqs.len(), frames as usize + 2, "looped past the end");

@@ -1,12 +1,15 @@
-//! The thesis-style ring buffer (1000 positions per joint, thesis §6.4.5) and its exports: a
-//! whitespace text file like the thesis's, and a CSV with the covariance and sensors used.
+//! What the recorder writes of the fused joints: the thesis-style ring buffer (1000 positions
+//! per joint, thesis §6.4.5) as a whitespace text file like the thesis's, and the whole run as a
+//! motion (CSV, TRC, C3D) through `trigait-motion`, so that the CLI reads it back.
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::collections::{BTreeMap, VecDeque};
 use std::fmt::Write as _;
 use std::path::Path;
 
 use eyre::Context;
 use nalgebra::Point3;
+use tracing::warn;
+use trigait_fusion::Trajectory;
 use trigait_schema::FusedPose;
 use trigait_skeleton::Joint;
 
@@ -102,45 +105,43 @@ impl Ring {
         out
     }
 
-    /// CSV: `stamp_nanos,set_seq,joint,x_m,y_m,z_m,sigma_m,sensors_used` (sensors `;`-separated).
-    #[must_use]
-    pub fn csv(&self) -> String {
-        let mut rows: BTreeSet<(i64, u64, usize, String)> = BTreeSet::new();
-        for (joint, q) in &self.joints {
-            for e in q {
-                rows.insert((
-                    e.stamp_nanos,
-                    e.set_seq,
-                    joint.index(),
-                    format!(
-                        "{},{},{},{:.6},{:.6},{:.6},{:.6},{}",
-                        e.stamp_nanos,
-                        e.set_seq,
-                        joint.name(),
-                        e.position.x,
-                        e.position.y,
-                        e.position.z,
-                        e.sigma_m,
-                        e.sensors_used.join(";")
-                    ),
-                ));
-            }
-        }
-        let mut out = String::from("stamp_nanos,set_seq,joint,x_m,y_m,z_m,sigma_m,sensors_used\n");
-        for (_, _, _, line) in rows {
-            out.push_str(&line);
-            out.push('\n');
-        }
-        out
-    }
-
-    /// Writes `trajectory.txt` and `trajectory.csv` into `dir`.
+    /// Writes `trajectory.txt` into `dir`.
     pub fn write(&self, dir: &Path) -> eyre::Result<()> {
         let txt = dir.join("trajectory.txt");
         std::fs::write(&txt, self.thesis_text())
             .with_context(|| format!("writing {}", txt.display()))?;
-        let csv = dir.join("trajectory.csv");
-        std::fs::write(&csv, self.csv()).with_context(|| format!("writing {}", csv.display()))?;
         Ok(())
     }
+}
+
+/// The files [`write_trajectory`] writes, in `OUTPUT_DIR`.
+pub const TRAJECTORY_FILES: [&str; 3] = ["trajectory.csv", "trajectory.trc", "trajectory.c3d"];
+
+/// Writes the whole run's fused joints through `trigait-motion` as `trajectory.csv` (the CSV
+/// `trigait gait` and `trigait export` read), `trajectory.trc` and `trajectory.c3d`. A run with
+/// too few poses for a frame rate writes none of them (and removes those of an earlier run,
+/// so no stale file is taken for this run's) and says why.
+///
+/// # Errors
+/// When a file cannot be written or removed.
+pub fn write_trajectory(dir: &Path, trajectory: &Trajectory) -> eyre::Result<()> {
+    let clip = match trajectory.to_clip("trigait fused joints") {
+        Ok(clip) => clip,
+        Err(e) => {
+            warn!("no trajectory files written: {e}");
+            for name in TRAJECTORY_FILES {
+                let path = dir.join(name);
+                if path.exists() {
+                    std::fs::remove_file(&path)
+                        .with_context(|| format!("removing the stale {}", path.display()))?;
+                }
+            }
+            return Ok(());
+        }
+    };
+    let [csv, trc, c3d] = TRAJECTORY_FILES.map(|name| dir.join(name));
+    trigait_motion::write_csv(&csv, &clip)?;
+    trigait_motion::write_trc(&trc, &clip)?;
+    trigait_motion::write_c3d(&c3d, &clip)?;
+    Ok(())
 }

@@ -1,12 +1,13 @@
 //! What `summary.json` reports, accumulated as the recording runs: fused-pose error against the
-//! simulator's ground truth, NTP mapping error per sensor, end-to-end latency, dropped and
+//! simulator's ground truth (scored by [`trigait_scoring`], the rules `trigait eval` uses), NTP mapping error per sensor, end-to-end latency, dropped and
 //! incomplete sets, and gaps in each source's stream.
 
 use std::collections::{BTreeMap, VecDeque};
 
 use nalgebra::Point3;
 use serde::Serialize;
-use trigait_schema::{FrameTiming, FusedPose};
+use trigait_schema::{FrameTiming, FusedPose, GroundTruth};
+use trigait_scoring::{PositionErrors, TruthTrack};
 use trigait_skeleton::Joint;
 
 /// Ground truth older than this behind the newest sample is forgotten, ns.
@@ -17,17 +18,17 @@ const TRUTH_MAX_SPAN_NANOS: i64 = 20_000_000;
 pub const GAP_NANOS: i64 = 150_000_000;
 
 /// Running totals.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct Stats {
     warmup_nanos: i64,
     first_pose_nanos: Option<i64>,
     warmup_poses: u64,
     warmup_latency_nanos: Vec<i64>,
-    truth: BTreeMap<i64, BTreeMap<Joint, Point3<f64>>>,
+    truth: TruthTrack,
     pending: VecDeque<FusedPose>,
-    sq_err: BTreeMap<Joint, (f64, u64)>,
-    axis_sq: [f64; 3],
-    axis_n: u64,
+    errors: PositionErrors,
+    empty_poses: u64,
+    joints_by_sensors_used: BTreeMap<usize, u64>,
     poses_without_truth: u64,
     timing: BTreeMap<String, SensorTiming>,
     latency_nanos: Vec<i64>,
@@ -96,6 +97,10 @@ pub struct Summary {
     pub joints_fused: u64,
     /// Joints skipped, by reason.
     pub joints_skipped: u64,
+    /// Poses with no joint fused (every joint skipped).
+    pub empty_poses: u64,
+    /// Fused joints by the number of sensors the estimate used.
+    pub joints_by_sensors_used: BTreeMap<usize, u64>,
     /// Skip reasons and their counts.
     pub skip_reasons: BTreeMap<String, u64>,
     /// Per-joint RMSE against ground truth, metres (simulated sources only).
@@ -160,7 +165,7 @@ pub struct NtpSummary {
     pub drift_ppm: Option<f64>,
 }
 
-/// p50/p99/max of a sample, ms.
+/// p50/p99/max of a sample, ms, by the one percentile rule ([`trigait_scoring::percentile`]).
 #[derive(Debug, Clone, Copy, Serialize, Default, PartialEq)]
 pub struct Percentiles {
     /// Samples.
@@ -177,21 +182,19 @@ impl Percentiles {
     /// From nanosecond samples.
     #[must_use]
     pub fn of_nanos(values: &[i64]) -> Self {
-        if values.is_empty() {
-            return Self::default();
-        }
-        let mut v = values.to_vec();
-        v.sort_unstable();
-        let at = |q: f64| {
-            let i = ((v.len() - 1) as f64 * q).round() as usize;
-            v.get(i).copied().unwrap_or(0) as f64 * 1e-6
-        };
+        let p = trigait_scoring::Percentiles::of_nanos(values);
         Self {
-            count: v.len(),
-            p50: at(0.5),
-            p99: at(0.99),
-            max: at(1.0),
+            count: p.count,
+            p50: p.p50,
+            p99: p.p99,
+            max: p.max,
         }
+    }
+}
+
+impl Default for Stats {
+    fn default() -> Self {
+        Self::new(0)
     }
 }
 
@@ -201,64 +204,53 @@ impl Stats {
     pub fn new(warmup_nanos: i64) -> Self {
         Self {
             warmup_nanos,
-            ..Self::default()
+            first_pose_nanos: None,
+            warmup_poses: 0,
+            warmup_latency_nanos: Vec::new(),
+            truth: TruthTrack::new(TRUTH_HORIZON_NANOS, TRUTH_MAX_SPAN_NANOS),
+            pending: VecDeque::new(),
+            errors: PositionErrors::default(),
+            empty_poses: 0,
+            joints_by_sensors_used: BTreeMap::new(),
+            poses_without_truth: 0,
+            timing: BTreeMap::new(),
+            latency_nanos: Vec::new(),
+            age_nanos: Vec::new(),
+            sets: 0,
+            last_seq: None,
+            dropped_sets: 0,
+            incomplete_sets: 0,
+            joints_fused: 0,
+            joints_skipped: 0,
+            skip_reasons: BTreeMap::new(),
+            frames: BTreeMap::new(),
+            malformed: 0,
+            input_drops: BTreeMap::new(),
         }
     }
 
-    /// Ground truth rows (world frame, `local_stamp_nanos` = true instant).
-    ///
-    /// Every simulated source sends the same world truth, so all but the first copy of an instant
-    /// is skipped before any work is done on it: with 16 sources the recorder would otherwise
-    /// build and insert each sample 16 times on its hot path.
-    pub fn push_truth(&mut self, rows: Vec<trigait_skeleton::SkeletonFrame>) {
+    /// Ground truth, one entry per true instant (an instant already held is skipped).
+    pub fn push_truth(&mut self, rows: Vec<GroundTruth>) {
         let mut fresh = false;
         for row in rows {
-            if self.truth.contains_key(&row.local_stamp_nanos) {
-                continue;
-            }
-            fresh = true;
-            let joints = row
-                .joints
-                .iter()
-                .map(|s| (s.joint, s.position_in_kinect))
-                .collect();
-            self.truth.insert(row.local_stamp_nanos, joints);
+            fresh |= self
+                .truth
+                .insert(row.true_stamp_nanos, row.position_in_world);
         }
-        if !fresh {
-            return;
+        if fresh {
+            self.score_pending(false);
         }
-        if let Some((&newest, _)) = self.truth.last_key_value() {
-            let keep = self.truth.split_off(&(newest - TRUTH_HORIZON_NANOS));
-            self.truth = keep;
-        }
-        self.score_pending(false);
     }
 
     /// True position of `joint` at `at_nanos`, interpolated between the truth samples around it.
     #[must_use]
     pub fn truth_at(&self, joint: Joint, at_nanos: i64) -> Option<Point3<f64>> {
-        let (t0, a) = self.truth.range(..=at_nanos).next_back()?;
-        let (t1, b) = self.truth.range(at_nanos..).next()?;
-        if t1 - t0 > TRUTH_MAX_SPAN_NANOS {
-            return None;
-        }
-        let (a, b) = (a.get(&joint)?, b.get(&joint)?);
-        if t1 == t0 {
-            return Some(*a);
-        }
-        let f = (at_nanos - t0) as f64 / (t1 - t0) as f64;
-        Some(a + (b - a) * f)
+        self.truth.at(joint, at_nanos)
     }
 
-    /// A fused pose recorded at `now_nanos`; `trigger_sent_nanos` and `missing_sensors` come
-    /// from the metadata `sync` attached.
-    pub fn push_pose(
-        &mut self,
-        pose: FusedPose,
-        now_nanos: i64,
-        trigger_sent_nanos: Option<i64>,
-        missing_sensors: Option<i64>,
-    ) {
+    /// A fused pose recorded at `now_nanos`; `trigger_sent_nanos` comes from the metadata
+    /// `sync` attached.
+    pub fn push_pose(&mut self, pose: FusedPose, now_nanos: i64, trigger_sent_nanos: Option<i64>) {
         self.sets += 1;
         match self.last_seq {
             // Sync numbers its sets from 0: a first pose with seq k means k sets never came.
@@ -267,7 +259,7 @@ impl Stats {
             Some(_) => {}
         }
         self.last_seq = Some(self.last_seq.map_or(pose.set_seq, |l| l.max(pose.set_seq)));
-        if missing_sensors.is_some_and(|m| m > 0) {
+        if !pose.missing_sensors.is_empty() {
             self.incomplete_sets += 1;
         }
         let first = *self.first_pose_nanos.get_or_insert(now_nanos);
@@ -283,6 +275,13 @@ impl Stats {
         self.age_nanos.push(now_nanos - pose.stamp_nanos);
         self.joints_fused += pose.joints.len() as u64;
         self.joints_skipped += pose.skipped.len() as u64;
+        self.empty_poses += u64::from(pose.joints.is_empty());
+        for fused in pose.joints.values() {
+            *self
+                .joints_by_sensors_used
+                .entry(fused.sensors_used.len())
+                .or_default() += 1;
+        }
         for reason in pose.skipped.values() {
             *self.skip_reasons.entry(reason.clone()).or_default() += 1;
         }
@@ -293,7 +292,7 @@ impl Stats {
     }
 
     fn score_pending(&mut self, at_end: bool) {
-        let newest = self.truth.last_key_value().map(|(t, _)| *t);
+        let newest = self.truth.newest_nanos();
         while let Some(pose) = self.pending.front() {
             if !at_end && newest.is_none_or(|n| n < pose.stamp_nanos) {
                 break;
@@ -307,14 +306,7 @@ impl Stats {
                     continue;
                 };
                 any = true;
-                let d = fused.position - truth;
-                let e = self.sq_err.entry(*joint).or_default();
-                e.0 += d.norm_squared();
-                e.1 += 1;
-                for (k, v) in d.iter().enumerate() {
-                    self.axis_sq[k] += v * v;
-                }
-                self.axis_n += 1;
+                self.errors.push(*joint, fused.position - truth);
             }
             if !any {
                 self.poses_without_truth += 1;
@@ -390,10 +382,6 @@ impl Stats {
                 });
             }
         }
-        let total: (f64, u64) = self
-            .sq_err
-            .values()
-            .fold((0.0, 0), |acc, (s, n)| (acc.0 + s, acc.1 + n));
         Summary {
             frames_in: self
                 .frames
@@ -410,17 +398,18 @@ impl Stats {
             incomplete_sets: self.incomplete_sets,
             joints_fused: self.joints_fused,
             joints_skipped: self.joints_skipped,
+            empty_poses: self.empty_poses,
+            joints_by_sensors_used: self.joints_by_sensors_used.clone(),
             skip_reasons: self.skip_reasons.clone(),
             rmse_m: self
-                .sq_err
-                .iter()
-                .filter(|(_, (_, n))| *n > 0)
-                .map(|(j, (s, n))| (j.name().to_owned(), (s / *n as f64).sqrt()))
+                .errors
+                .per_joint_rmse_m()
+                .into_iter()
+                .map(|(j, r)| (j.name().to_owned(), r))
                 .collect(),
-            rmse_all_m: (total.1 > 0).then(|| (total.0 / total.1 as f64).sqrt()),
-            rmse_xyz_m: (self.axis_n > 0)
-                .then(|| self.axis_sq.map(|s| (s / self.axis_n as f64).sqrt())),
-            truth_samples: total.1,
+            rmse_all_m: (!self.errors.is_empty()).then(|| self.errors.rmse_m()),
+            rmse_xyz_m: (!self.errors.is_empty()).then(|| self.errors.rmse_xyz_m()),
+            truth_samples: self.errors.count() as u64,
             poses_without_truth: self.poses_without_truth,
             ntp: self
                 .timing

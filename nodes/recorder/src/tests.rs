@@ -9,8 +9,8 @@ use dora_node_api::integration_testing::TestingOptions;
 use dora_node_api::serde_json;
 use nalgebra::{Matrix3, Point3};
 use trigait_node_testing::{chain, init_node, lookup};
-use trigait_schema::{FrameTiming, FusedJoint, FusedPose};
-use trigait_skeleton::{Joint, JointSample, SkeletonFrame, TrackingState};
+use trigait_schema::{FrameTiming, FusedJoint, FusedPose, GroundTruth};
+use trigait_skeleton::Joint;
 
 use crate::config::Config;
 use crate::export::Ring;
@@ -44,16 +44,10 @@ fn config_defaults_and_errors() {
     }
 }
 
-fn truth_row(t: i64, x: f64) -> SkeletonFrame {
-    SkeletonFrame {
-        sensor_id: "truth:k1".into(),
-        seq: 0,
-        local_stamp_nanos: t,
-        joints: vec![JointSample {
-            joint: Joint::KneeLeft,
-            position_in_kinect: Point3::new(x, 0.0, 0.5),
-            state: TrackingState::Tracked,
-        }],
+fn truth_row(t: i64, x: f64) -> GroundTruth {
+    GroundTruth {
+        true_stamp_nanos: t,
+        position_in_world: BTreeMap::from([(Joint::KneeLeft, Point3::new(x, 0.0, 0.5))]),
     }
 }
 
@@ -77,13 +71,14 @@ fn pose(seq: u64, t: i64, x: f64) -> FusedPose {
         stamp_nanos: t,
         joints,
         skipped,
+        missing_sensors: Vec::new(),
     }
 }
 
-/// Every simulated source sends the same truth: a second copy of an instant is skipped, so the
-/// score is that of one copy (and a stale or differing copy cannot move it).
+/// Truth of an instant already held is skipped, so the score is that of the first copy (a
+/// stale or differing resend cannot move it).
 #[test]
-fn truth_from_several_sources_counts_once() {
+fn repeated_truth_counts_once() {
     let mut one = Stats::default();
     let mut many = Stats::default();
     let rows = |x0: f64| {
@@ -100,7 +95,7 @@ fn truth_from_several_sources_counts_once() {
         many.truth_at(Joint::KneeLeft, 15_000_000)
     );
     for stats in [&mut one, &mut many] {
-        stats.push_pose(pose(0, 15_000_000, 0.045), 20_000_000, None, Some(0));
+        stats.push_pose(pose(0, 15_000_000, 0.045), 20_000_000, None);
     }
     let (a, b) = (one.summary(30_000_000), many.summary(30_000_000));
     assert_eq!(a.truth_samples, b.truth_samples);
@@ -124,24 +119,11 @@ fn summary_scores_and_counts() {
             .collect(),
     );
     // Pose at 15 ms: truth x = 0.015; fused 3 cm off. Pose at 33 ms exact. Seq 2 never arrives.
-    stats.push_pose(
-        pose(0, 15_000_000, 0.045),
-        20_000_000,
-        Some(18_000_000),
-        Some(0),
-    );
-    stats.push_pose(
-        pose(1, 33_000_000, 0.033),
-        40_000_000,
-        Some(36_000_000),
-        Some(1),
-    );
-    stats.push_pose(
-        pose(3, 60_000_000, 0.060),
-        66_000_000,
-        Some(64_000_000),
-        None,
-    );
+    stats.push_pose(pose(0, 15_000_000, 0.045), 20_000_000, Some(18_000_000));
+    let mut incomplete = pose(1, 33_000_000, 0.033);
+    incomplete.missing_sensors = vec!["k2".into()];
+    stats.push_pose(incomplete, 40_000_000, Some(36_000_000));
+    stats.push_pose(pose(3, 60_000_000, 0.060), 66_000_000, Some(64_000_000));
     stats.push_timing(&[
         FrameTiming {
             sensor_id: "k1".into(),
@@ -212,11 +194,11 @@ fn percentiles() {
     assert_eq!((p.count, p.p50, p.p99, p.max), (1, 3.0, 3.0, 3.0));
     let v: Vec<i64> = (1..=100).map(|i| i * 1_000_000).collect();
     let p = Percentiles::of_nanos(&v);
-    assert_eq!((p.p50, p.p99, p.max), (51.0, 99.0, 100.0));
+    assert_eq!((p.p50, p.p99, p.max), (50.0, 99.0, 100.0), "nearest rank");
 }
 
 /// The ring keeps the newest `capacity` positions per joint; the text file has one line per
-/// instant with x y z per joint, the CSV one row per joint and instant.
+/// instant with x y z per joint.
 #[test]
 fn ring_and_exports() {
     let mut ring = Ring::new(1000);
@@ -232,9 +214,36 @@ fn ring_and_exports() {
         .map(|v| v.parse().unwrap())
         .collect();
     assert_eq!(first, [0.0, 0.2, 0.0, 0.5]);
-    let csv = ring.csv();
-    assert_eq!(csv.lines().count(), 1001);
-    assert!(csv.lines().nth(1).unwrap().ends_with(",k1;k2"));
+}
+
+/// The whole run goes out through `trigait-motion`: the CSV, TRC and C3D read back with its
+/// readers as the same 30 Hz trajectory, every pose on its frame (a lost set is a gap).
+#[test]
+fn trajectory_files_read_back() {
+    let dir = std::env::temp_dir().join(format!("trigait-recorder-traj-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut trajectory = trigait_fusion::Trajectory::new();
+    for i in (0..90).filter(|i| *i != 40) {
+        trajectory.push(&pose(i, 5_000 + i as i64 * 33_333_333, i as f64 * 0.01));
+    }
+    crate::export::write_trajectory(&dir, &trajectory).unwrap();
+    let clip = trigait_motion::read_csv(dir.join("trajectory.csv")).unwrap();
+    assert!((clip.rate_hz() - 30.0).abs() < 1e-3, "{}", clip.rate_hz());
+    assert_eq!(clip.frame_count(), 90);
+    assert_eq!(clip.joints(), [Joint::KneeLeft]);
+    assert!(clip.position(40, Joint::KneeLeft).is_none());
+    let p = clip.position(41, Joint::KneeLeft).unwrap();
+    assert!((p.x - 0.41).abs() < 1e-6 && (p.z - 0.5).abs() < 1e-6, "{p}");
+    let trc = trigait_motion::read_trc(dir.join("trajectory.trc")).unwrap();
+    assert_eq!(trc.frame_count(), 90);
+    let c3d = trigait_motion::read_c3d(dir.join("trajectory.c3d")).unwrap();
+    assert_eq!(c3d.frame_count(), 90);
+    // Too few poses for a rate: no files, and an earlier run's are gone.
+    let mut one = trigait_fusion::Trajectory::new();
+    one.push(&pose(0, 0, 0.0));
+    crate::export::write_trajectory(&dir, &one).unwrap();
+    assert!(!dir.join("trajectory.csv").exists() && !dir.join("trajectory.c3d").exists());
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A run with no data still writes summary.json, the exports and a recording.
@@ -259,7 +268,11 @@ fn empty_run_writes_outputs() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
     assert_eq!(json["sets_fused"], 0);
-    assert!(dir.join("trajectory.txt").exists() && dir.join("trajectory.csv").exists());
+    assert!(dir.join("trajectory.txt").exists());
+    assert!(
+        !dir.join("trajectory.csv").exists(),
+        "no poses: no trajectory to read back"
+    );
     assert!(std::fs::metadata(dir.join("trigait.rrd")).unwrap().len() > 0);
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -272,16 +285,11 @@ fn warmup_latency_is_reported_apart() {
     let ms = 1_000_000;
     // A slow start: 120 ms, then 2 ms. The warm-up runs from the first pose's recording (at
     // 120 ms): 1119 ms is still in it, 1120 ms is not.
-    stats.push_pose(pose(0, 0, 0.0), 120 * ms, Some(0), Some(3));
-    stats.push_pose(pose(1, 33 * ms, 0.0), 1119 * ms, Some(1117 * ms), Some(0));
-    stats.push_pose(pose(2, 66 * ms, 0.0), 1120 * ms, None, Some(0));
+    stats.push_pose(pose(0, 0, 0.0), 120 * ms, Some(0));
+    stats.push_pose(pose(1, 33 * ms, 0.0), 1119 * ms, Some(1117 * ms));
+    stats.push_pose(pose(2, 66 * ms, 0.0), 1120 * ms, None);
     for (seq, at) in [(3, 1200), (4, 1300)] {
-        stats.push_pose(
-            pose(seq, at * ms, 0.0),
-            (at + 3) * ms,
-            Some(at * ms),
-            Some(0),
-        );
+        stats.push_pose(pose(seq, at * ms, 0.0), (at + 3) * ms, Some(at * ms));
     }
     let s = stats.summary(2_000 * ms);
     assert_eq!(s.warmup.poses, 2);

@@ -8,6 +8,7 @@ mod config;
 #[cfg(test)]
 mod tests;
 
+use dora_node_api::arrow_v59::array::Array;
 use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{
     DoraNode, Event, EventStream, MetadataParameters, Parameter, get_integer_param,
@@ -128,6 +129,47 @@ fn now_nanos() -> i64 {
         .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
 }
 
+/// What an input id says the input is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Input<'a> {
+    /// The timer ([`ports::TICK`]): NTP requests due, sets whose deadline passed, timings.
+    Tick,
+    /// `ntp_<sensor>`: an answered NTP request.
+    NtpReply(&'a str),
+    /// `frame_<sensor>`: a skeleton frame.
+    Frame(&'a str),
+    /// Anything else (logged, ignored).
+    Unknown(&'a str),
+}
+
+impl<'a> Input<'a> {
+    /// The input `id` names.
+    #[must_use]
+    pub fn parse(id: &'a str) -> Self {
+        if id == ports::TICK {
+            Input::Tick
+        } else if let Some(sensor) = ports::sensor_of(id, ports::NTP_INPUT_PREFIX) {
+            Input::NtpReply(sensor)
+        } else if let Some(sensor) = ports::sensor_of(id, ports::FRAME_INPUT_PREFIX) {
+            Input::Frame(sensor)
+        } else {
+            Input::Unknown(id)
+        }
+    }
+}
+
+/// The node's state between events.
+struct State {
+    sensors: Vec<String>,
+    routes: NtpRoutes,
+    buffer: SyncBuffer,
+    out: Outputs,
+    counters: Counters,
+    timings: Vec<FrameTiming>,
+    ntp_schedule: NtpSchedule,
+    request_id: u64,
+}
+
 /// The event loop.
 pub fn run(
     config: Config,
@@ -136,124 +178,51 @@ pub fn run(
     mut node: DoraNode,
     mut events: EventStream,
 ) -> eyre::Result<Counters> {
-    let mut buffer = SyncBuffer::new(sensors.clone(), config.params.clone())
-        .context("sync: building the sync buffer")?;
-    let out = Outputs {
-        aligned: DataId::from(ports::ALIGNED_SET.to_owned()),
-        ntp: DataId::from(ports::NTP_REQUEST.to_owned()),
-        timing: DataId::from(ports::FRAME_TIMING.to_owned()),
-    };
     info!(
         "{} sensors ({}), policy {}",
         sensors.len(),
         sensors.join(", "),
         config.params.policy
     );
-    let mut counters = Counters::default();
-    let mut timings: Vec<FrameTiming> = Vec::new();
-    // Each sensor's exchange at its own phase of the interval, not all on one tick.
-    let mut ntp_schedule = NtpSchedule::new(sensors.len(), config.ntp_interval_nanos);
-    let mut request_id = 0_u64;
+    let mut state = State {
+        buffer: SyncBuffer::new(sensors.clone(), config.params.clone())
+            .context("sync: building the sync buffer")?,
+        out: Outputs {
+            aligned: DataId::from(ports::ALIGNED_SET.to_owned()),
+            ntp: DataId::from(ports::NTP_REQUEST.to_owned()),
+            timing: DataId::from(ports::FRAME_TIMING.to_owned()),
+        },
+        counters: Counters::default(),
+        timings: Vec::new(),
+        // Each sensor's exchange at its own phase of the interval, not all on one tick.
+        ntp_schedule: NtpSchedule::new(sensors.len(), config.ntp_interval_nanos),
+        request_id: 0,
+        sensors,
+        routes,
+    };
     while let Some(event) = events.recv() {
         trigait_node_log::warn_drops(&mut events);
         match event {
             Event::Input { id, metadata, data } => {
-                let id = id.as_str();
                 let now = now_nanos();
-                if id == "tick" {
-                    for sensor in ntp_schedule.due(now).into_iter().map(|i| &sensors[i]) {
-                        request_id += 1;
-                        let request = NtpExchange::request(sensor.clone(), request_id, now_nanos());
-                        let array = request.encode().context("encoding an NTP request")?;
-                        let port = match &routes {
-                            NtpRoutes::PerSensor(ports) => ports.get(sensor).unwrap_or(&out.ntp),
-                            NtpRoutes::Broadcast => &out.ntp,
-                        };
-                        node.send_output(port.clone(), MetadataParameters::default(), array)
-                            .with_context(|| format!("sync: sending {port}"))?;
-                        counters.ntp_requests += 1;
+                let array = data.as_array();
+                match Input::parse(id.as_str()) {
+                    Input::Tick => state.on_tick(&mut node, now)?,
+                    Input::NtpReply(sensor) => state.on_ntp_reply(sensor, array.as_ref(), now),
+                    Input::Frame(sensor) => {
+                        state.on_frame(
+                            &mut node,
+                            sensor,
+                            &metadata.parameters,
+                            array.as_ref(),
+                            now,
+                        )?;
                     }
-                    let sets: Vec<AlignedSet> = buffer.advance_to(now).collect();
-                    emit(&mut node, &out, sets, now, &mut counters)?;
-                    if !timings.is_empty() {
-                        let array =
-                            FrameTiming::encode_many(&timings).context("encoding frame timings")?;
-                        node.send_output(out.timing.clone(), MetadataParameters::default(), array)
-                            .context("sync: sending frame_timing")?;
-                        timings.clear();
-                    }
-                } else if let Some(sensor) = ports::sensor_of(id, ports::NTP_INPUT_PREFIX) {
-                    let exchange = match NtpExchange::decode(data.as_array().as_ref()) {
-                        Ok(e) if e.sensor_id == sensor => e.completed(now),
-                        Ok(e) => {
-                            counters.malformed += 1;
-                            warn!(
-                                input = id,
-                                "skipping an NTP reply of sensor {:?}", e.sensor_id
-                            );
-                            continue;
-                        }
-                        Err(e) => {
-                            counters.malformed += 1;
-                            warn!(input = id, "skipping a malformed NTP reply: {e}");
-                            continue;
-                        }
-                    };
-                    let Some(sample) = exchange.sample() else {
-                        counters.malformed += 1;
-                        warn!(input = id, "skipping an NTP reply without t2/t3");
-                        continue;
-                    };
-                    match buffer.push_ntp(sensor, sample) {
-                        Ok(_) => counters.ntp_replies += 1,
-                        Err(e) => {
-                            counters.malformed += 1;
-                            warn!(input = id, "NTP reply refused: {e}");
-                        }
-                    }
-                } else if let Some(sensor) = ports::sensor_of(id, ports::FRAME_INPUT_PREFIX) {
-                    let frame = match SkeletonFrameMessage::decode(data.as_array().as_ref()) {
-                        Ok(m) if m.frame.sensor_id == sensor => m.frame,
-                        Ok(m) => {
-                            counters.malformed += 1;
-                            warn!(
-                                input = id,
-                                "skipping a frame of sensor {:?}", m.frame.sensor_id
-                            );
-                            continue;
-                        }
-                        Err(e) => {
-                            counters.malformed += 1;
-                            warn!(input = id, "skipping a malformed frame: {e}");
-                            continue;
-                        }
-                    };
-                    let sets: Vec<AlignedSet> = buffer.advance_to(now).collect();
-                    emit(&mut node, &out, sets, now, &mut counters)?;
-                    timings.push(timing_of(
-                        &buffer,
-                        &frame,
-                        get_integer_param(&metadata.parameters, ports::TRUE_CAPTURE_NANOS),
-                    ));
-                    let sent =
-                        get_integer_param(&metadata.parameters, ports::SENT_NANOS).unwrap_or(now);
-                    match buffer.push(frame) {
-                        Ok(sets) => {
-                            let sets: Vec<AlignedSet> = sets.collect();
-                            emit(&mut node, &out, sets, sent, &mut counters)?;
-                        }
-                        Err(SyncError::NotSynchronised { .. }) => counters.frames_dropped += 1,
-                        Err(e) => {
-                            counters.frames_dropped += 1;
-                            warn!("frame dropped: {e}");
-                        }
-                    }
-                } else {
-                    warn!(input = id, "ignoring an unknown input");
+                    Input::Unknown(id) => warn!(input = id, "ignoring an unknown input"),
                 }
             }
             Event::InputClosed { id } => {
-                if let Some(sensor) = ports::sensor_of(id.as_str(), ports::FRAME_INPUT_PREFIX) {
+                if let Input::Frame(sensor) = Input::parse(id.as_str()) {
                     warn!(%sensor, "source stopped; its sets go out incomplete from now on");
                 }
             }
@@ -262,9 +231,15 @@ pub fn run(
             _ => {}
         }
     }
-    let sets: Vec<AlignedSet> = buffer.flush().collect();
-    emit(&mut node, &out, sets, now_nanos(), &mut counters)?;
-    let c = buffer.counters();
+    let sets: Vec<AlignedSet> = state.buffer.flush().collect();
+    emit(
+        &mut node,
+        &state.out,
+        sets,
+        now_nanos(),
+        &mut state.counters,
+    )?;
+    let c = state.buffer.counters();
     info!(
         "frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; NTP in {} rejected {} steps {}; sets {} ({} incomplete, {} empty)",
         c.frames_in,
@@ -279,13 +254,124 @@ pub fn run(
         c.sets_incomplete,
         c.sets_empty
     );
-    Ok(counters)
+    Ok(state.counters)
+}
+
+impl State {
+    /// Sends the NTP requests due, the sets whose deadline passed and the frame timings
+    /// gathered since the last tick.
+    fn on_tick(&mut self, node: &mut DoraNode, now: i64) -> eyre::Result<()> {
+        for i in self.ntp_schedule.due(now) {
+            let Some(sensor) = self.sensors.get(i) else {
+                continue;
+            };
+            self.request_id += 1;
+            let request = NtpExchange::request(sensor.clone(), self.request_id, now_nanos());
+            let array = request.encode().context("encoding an NTP request")?;
+            let port = match &self.routes {
+                NtpRoutes::PerSensor(ports) => ports.get(sensor).unwrap_or(&self.out.ntp),
+                NtpRoutes::Broadcast => &self.out.ntp,
+            };
+            node.send_output(port.clone(), MetadataParameters::default(), array)
+                .with_context(|| format!("sync: sending {port}"))?;
+            self.counters.ntp_requests += 1;
+        }
+        let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
+        emit(node, &self.out, sets, now, &mut self.counters)?;
+        if !self.timings.is_empty() {
+            let array =
+                FrameTiming::encode_many(&self.timings).context("encoding frame timings")?;
+            node.send_output(
+                self.out.timing.clone(),
+                MetadataParameters::default(),
+                array,
+            )
+            .context("sync: sending frame_timing")?;
+            self.timings.clear();
+        }
+        Ok(())
+    }
+
+    /// Feeds an answered NTP request of `sensor` to its clock filter; a malformed or misrouted
+    /// reply is counted and skipped.
+    fn on_ntp_reply(&mut self, sensor: &str, array: &dyn Array, now: i64) {
+        let exchange = match NtpExchange::decode(array) {
+            Ok(e) if e.sensor_id == sensor => e.completed(now),
+            Ok(e) => {
+                self.counters.malformed += 1;
+                warn!(%sensor, "skipping an NTP reply of sensor {:?}", e.sensor_id);
+                return;
+            }
+            Err(e) => {
+                self.counters.malformed += 1;
+                warn!(%sensor, "skipping a malformed NTP reply: {e}");
+                return;
+            }
+        };
+        let Some(sample) = exchange.sample() else {
+            self.counters.malformed += 1;
+            warn!(%sensor, "skipping an NTP reply without t2/t3");
+            return;
+        };
+        match self.buffer.push_ntp(sensor, sample) {
+            Ok(_) => self.counters.ntp_replies += 1,
+            Err(e) => {
+                self.counters.malformed += 1;
+                warn!(%sensor, "NTP reply refused: {e}");
+            }
+        }
+    }
+
+    /// Sends the sets due before a frame of `sensor`, notes its timing, buffers it and sends
+    /// the sets it completes; a malformed or misrouted frame is counted and skipped.
+    fn on_frame(
+        &mut self,
+        node: &mut DoraNode,
+        sensor: &str,
+        params: &MetadataParameters,
+        array: &dyn Array,
+        now: i64,
+    ) -> eyre::Result<()> {
+        let frame = match SkeletonFrameMessage::decode(array) {
+            Ok(m) if m.frame.sensor_id == sensor => m.frame,
+            Ok(m) => {
+                self.counters.malformed += 1;
+                warn!(%sensor, "skipping a frame of sensor {:?}", m.frame.sensor_id);
+                return Ok(());
+            }
+            Err(e) => {
+                self.counters.malformed += 1;
+                warn!(%sensor, "skipping a malformed frame: {e}");
+                return Ok(());
+            }
+        };
+        let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
+        emit(node, &self.out, sets, now, &mut self.counters)?;
+        self.timings.push(timing_of(
+            &self.buffer,
+            &frame,
+            get_integer_param(params, ports::TRUE_STAMP_NANOS),
+        ));
+        let sent = get_integer_param(params, ports::SENT_NANOS).unwrap_or(now);
+        match self.buffer.push(frame) {
+            Ok(sets) => {
+                let sets: Vec<AlignedSet> = sets.collect();
+                emit(node, &self.out, sets, sent, &mut self.counters)?;
+            }
+            Err(SyncError::NotSynchronised { .. }) => self.counters.frames_dropped += 1,
+            Err(e) => {
+                self.counters.frames_dropped += 1;
+                warn!("frame dropped: {e}");
+            }
+        }
+        Ok(())
+    }
 }
 
 fn timing_of(
     buffer: &SyncBuffer,
     frame: &trigait_skeleton::SkeletonFrame,
-    true_nanos: Option<i64>,
+    true_stamp_nanos: Option<i64>,
 ) -> FrameTiming {
     let mapped = buffer.server_from_local(&frame.sensor_id, frame.local_stamp_nanos);
     let estimate = buffer.clock(&frame.sensor_id).and_then(|c| c.estimate());
@@ -297,7 +383,7 @@ fn timing_of(
         uncertainty_nanos: mapped.map(|m| m.uncertainty_nanos),
         offset_nanos: estimate.map(|e| e.offset_nanos),
         drift_ppm: estimate.map(|e| e.drift_ppm),
-        true_stamp_nanos: true_nanos,
+        true_stamp_nanos,
     }
 }
 
@@ -313,10 +399,6 @@ fn emit(
         params.insert(
             ports::TRIGGER_SENT_NANOS.to_owned(),
             Parameter::Integer(trigger_sent_nanos),
-        );
-        params.insert(
-            ports::MISSING_SENSORS.to_owned(),
-            Parameter::Integer(i64::try_from(set.missing.len()).unwrap_or(i64::MAX)),
         );
         let array = set.encode().context("encoding an aligned set")?;
         node.send_output(out.aligned.clone(), params, array)

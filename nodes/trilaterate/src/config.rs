@@ -5,7 +5,7 @@
 //! | `METHOD` | `geometric`, `linear`, `nls`, `fusion` | `fusion` | the estimator |
 //! | `ROBUST` | bool | `false` | wrap it in outlier rejection |
 //! | `RIG` | `thesis`, `ring-N` or a YAML path | `thesis` | sensor poses (must match the sources') |
-//! | `RESAMPLING_WEIGHTS` | bool | `true` | widen each observation's covariance by `sync`'s resampling-error estimate ([`crate::fuse`]) |
+//! | `RESAMPLING_WEIGHTS` | bool | `true` | widen each observation's covariance by `sync`'s resampling-error estimate ([`trigait_fusion`]) |
 
 use eyre::eyre;
 use trigait_node_config::env_flag;

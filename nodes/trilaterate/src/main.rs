@@ -1,21 +1,23 @@
 //! `trilaterate`: fuses each `aligned_set` with the YAML-selected estimator into a `fused_pose`
 //! (world frame, covariance, diagnostics); a joint too few sensors saw is listed in
-//! `FusedPose::skipped` with the reason. Configuration: [`config`].
+//! `FusedPose::skipped` with the reason. Configuration: [`config`]. The fusion itself is
+//! [`trigait_fusion`], the code `trigait eval` runs; this node only decodes, calls it, encodes.
 
 mod config;
-mod fuse;
 #[cfg(test)]
 mod tests;
 
+use dora_node_api::arrow_v59::array::Array;
 use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{DoraNode, Event, EventStream};
 use eyre::Context;
 use tracing::{info, warn};
-use trigait_schema::{Message, ports};
+use trigait_fusion::{FusionRig, PoseFuser, SensorSamples};
+use trigait_kinect::NoiseModel;
+use trigait_schema::{FusedPose, Message, ports};
 use trigait_sync::AlignedSet;
 
 use crate::config::Config;
-use crate::fuse::Fuser;
 
 fn main() -> eyre::Result<()> {
     trigait_node_log::init("trilaterate");
@@ -40,8 +42,7 @@ pub struct Counters {
 
 /// The event loop.
 pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre::Result<Counters> {
-    let mut fuser = Fuser::new(&config.rig, config.params.clone(), config.estimator_name())
-        .with_resampling_weights(config.resampling_weights);
+    let mut fuser = pose_fuser(&config);
     let pose_out = DataId::from(ports::FUSED_POSE.to_owned());
     let mut counters = Counters::default();
     let mut warned_unknown = false;
@@ -50,15 +51,12 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
         match event {
             Event::Input { id, metadata, data } => match id.as_str() {
                 ports::ALIGNED_SET => {
-                    let set = match AlignedSet::decode(data.as_array().as_ref()) {
-                        Ok(set) => set,
-                        Err(e) => {
-                            counters.malformed += 1;
-                            warn!("skipping a malformed aligned set: {e}");
-                            continue;
-                        }
+                    let Some((pose, unknown)) =
+                        on_aligned_set(&mut fuser, data.as_array().as_ref())
+                    else {
+                        counters.malformed += 1;
+                        continue;
                     };
-                    let (pose, unknown) = fuser.fuse(&set);
                     if !unknown.is_empty() && !warned_unknown {
                         warned_unknown = true;
                         warn!(
@@ -85,4 +83,42 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
         counters.poses_sent, counters.joints_fused, counters.joints_skipped, counters.malformed
     );
     Ok(counters)
+}
+
+/// The fuser `config` asks for: the rig's sensors with the Kinect v2 noise model.
+#[must_use]
+pub fn pose_fuser(config: &Config) -> PoseFuser {
+    let rig = FusionRig::new(&config.rig, &NoiseModel::default())
+        .with_resampling_weights(config.resampling_weights);
+    PoseFuser::new(rig, config.params.clone(), config.estimator_name())
+}
+
+/// The `aligned_set` handler: the fused pose of the set and the ids of sensors the rig does
+/// not know; `None` (logged) for a set that does not decode.
+pub fn on_aligned_set(
+    fuser: &mut PoseFuser,
+    array: &dyn Array,
+) -> Option<(FusedPose, Vec<String>)> {
+    let set = match AlignedSet::decode(array) {
+        Ok(set) => set,
+        Err(e) => {
+            warn!("skipping a malformed aligned set: {e}");
+            return None;
+        }
+    };
+    Some(fuse_set(fuser, &set))
+}
+
+/// Fuses one decoded aligned set.
+pub fn fuse_set(fuser: &mut PoseFuser, set: &AlignedSet) -> (FusedPose, Vec<String>) {
+    let samples: Vec<SensorSamples<'_>> = set
+        .sensors
+        .iter()
+        .map(|(id, view)| SensorSamples {
+            sensor_id: id,
+            joints: &view.joints,
+            resampling_error_m: &view.interpolation_error_m,
+        })
+        .collect();
+    fuser.fuse(set.seq, set.stamp_nanos, &samples, set.missing.clone())
 }

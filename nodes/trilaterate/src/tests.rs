@@ -14,7 +14,7 @@ use trigait_sync::{AlignedSet, Policy, SensorView};
 use trigait_trilateration::Method;
 
 use crate::config::Config;
-use crate::fuse::Fuser;
+use crate::{fuse_set, on_aligned_set, pose_fuser};
 
 /// Defaults to fusion on the thesis rig; `ROBUST` wraps it.
 #[test]
@@ -96,8 +96,8 @@ fn fuses_and_skips_with_reasons() {
         time_uncertainty_nanos: 0,
     };
     let fusion = Config::from_lookup(lookup(&[])).unwrap();
-    let mut fuser = Fuser::new(&fusion.rig, fusion.params.clone(), fusion.estimator_name());
-    let (pose, unknown) = fuser.fuse(&set);
+    let mut fuser = pose_fuser(&fusion);
+    let (pose, unknown) = fuse_set(&mut fuser, &set);
     assert!(unknown.is_empty());
     assert_eq!((pose.set_seq, pose.stamp_nanos), (4, 123));
     let k = &pose.joints[&Joint::KneeLeft];
@@ -110,8 +110,8 @@ fn fuses_and_skips_with_reasons() {
     );
 
     let linear = Config::from_lookup(lookup(&[("METHOD", "linear")])).unwrap();
-    let mut fuser = Fuser::new(&linear.rig, linear.params.clone(), linear.estimator_name());
-    let (pose, _) = fuser.fuse(&set);
+    let mut fuser = pose_fuser(&linear);
+    let (pose, _) = fuse_set(&mut fuser, &set);
     assert!((pose.joints[&Joint::KneeLeft].position - knee).norm() < 1e-6);
     let reason = &pose.skipped[&Joint::AnkleLeft];
     assert!(
@@ -123,7 +123,7 @@ fn fuses_and_skips_with_reasons() {
     for v in later.sensors.values_mut() {
         v.joints.retain(|s| s.joint == Joint::KneeLeft);
     }
-    let (pose, _) = fuser.fuse(&later);
+    let (pose, _) = fuse_set(&mut fuser, &later);
     assert!(pose.skipped[&Joint::AnkleLeft].contains("no sensor saw it"));
 }
 
@@ -160,14 +160,7 @@ fn resampling_error_widens_the_covariance() {
     let on = Config::from_lookup(lookup(&[])).unwrap();
     assert!(on.resampling_weights);
     let off = Config::from_lookup(lookup(&[("RESAMPLING_WEIGHTS", "false")])).unwrap();
-    let fuse = |c: &Config| {
-        Fuser::new(&c.rig, c.params.clone(), c.estimator_name())
-            .with_resampling_weights(c.resampling_weights)
-            .fuse(&set)
-            .0
-            .joints[&Joint::KneeLeft]
-            .clone()
-    };
+    let fuse = |c: &Config| fuse_set(&mut pose_fuser(c), &set).0.joints[&Joint::KneeLeft].clone();
     let (weighed, ignored) = (fuse(&on), fuse(&off));
     let (e_on, e_off) = (
         (weighed.position - knee).norm(),
@@ -198,9 +191,9 @@ fn unknown_sensor_is_left_out() {
         missing: vec![],
         time_uncertainty_nanos: 0,
     };
+    assert_eq!(rig.name, "thesis");
     let c = Config::from_lookup(lookup(&[])).unwrap();
-    let mut fuser = Fuser::new(&rig, c.params.clone(), c.estimator_name());
-    let (pose, unknown) = fuser.fuse(&set);
+    let (pose, unknown) = fuse_set(&mut pose_fuser(&c), &set);
     assert_eq!(unknown, ["k7"]);
     assert!(pose.joints.is_empty());
     assert!(pose.skipped.contains_key(&Joint::HipLeft));
@@ -223,4 +216,79 @@ fn malformed_set_is_skipped() {
     assert_eq!(counters.malformed, 1);
     assert_eq!(counters.poses_sent, 0);
     assert!(drain_outputs(&mut rx).is_empty());
+}
+
+/// The node and `trigait eval` run one fusion: the same simulated snapshots, encoded as the
+/// aligned sets `sync` would send and given to the node's `aligned_set` handler, come out as
+/// the very poses (bit for bit: position, covariance, sensors used) that eval's per-snapshot
+/// path ([`trigait_eval::observe_snapshot`], then the estimator) scores, for every method.
+#[test]
+fn node_and_eval_fuse_identically() {
+    use trigait_kinect::NoiseModel;
+    use trigait_schema::Message;
+    use trigait_sim::Simulator;
+
+    let rig = Rig::from_spec("thesis").unwrap();
+    let walker = trigait_motion::walker(&trigait_motion::WalkerParams::default(), 0.5, 30.0)
+        .unwrap()
+        .placed_on_walkway();
+    let sim = Simulator::new(&rig, walker, &Joint::LEGS, &NoiseModel::default());
+    let fusion = trigait_fusion::FusionRig::from_sensors(sim.sensors().to_vec());
+    let mut rngs: Vec<_> = (0..3).map(|s| Simulator::sensor_rng(3, s)).collect();
+    for method in ["geometric", "linear", "nls", "fusion"] {
+        for robust in ["false", "true"] {
+            let config =
+                Config::from_lookup(lookup(&[("METHOD", method), ("ROBUST", robust)])).unwrap();
+            let mut fuser = pose_fuser(&config);
+            let mut compared = 0;
+            for k in 0_u32..15 {
+                let snapshot = sim.snapshot(f64::from(k) / 30.0, &mut rngs);
+                let sensors: BTreeMap<String, SensorView> = sim
+                    .sensors()
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| (s.id.clone(), view(snapshot.samples(&sim, i))))
+                    .map(|(id, mut v)| {
+                        v.interpolation_error_m = vec![None; v.joints.len()];
+                        (id, v)
+                    })
+                    .collect();
+                let set = AlignedSet {
+                    seq: k.into(),
+                    stamp_nanos: i64::from(k) * 33_333_333,
+                    policy: Policy::Slots,
+                    sensors,
+                    missing: vec![],
+                    time_uncertainty_nanos: 0,
+                };
+                let array = set.encode().unwrap();
+                let (pose, unknown) = on_aligned_set(&mut fuser, array.as_ref()).unwrap();
+                assert!(unknown.is_empty());
+                let eval = trigait_eval::observe_snapshot(&fusion, &sim, &snapshot)
+                    .estimate(&config.params);
+                for (joint, fused) in &eval.joints {
+                    match (&fused.result, pose.joints.get(joint)) {
+                        (Ok(e), Some(node)) => {
+                            assert_eq!(e.position, node.position, "{method} {joint}");
+                            assert_eq!(e.covariance, node.covariance, "{method} {joint}");
+                            let ids: Vec<String> = fused
+                                .sensors_used()
+                                .iter()
+                                .map(|i| rig.sensors[*i].id.clone())
+                                .collect();
+                            assert_eq!(ids, node.sensors_used);
+                            compared += 1;
+                        }
+                        (Err(_), None) => assert!(pose.skipped.contains_key(joint)),
+                        (e, n) => panic!("{method} {joint}: eval {e:?}, node {n:?}"),
+                    }
+                }
+                assert_eq!(pose.joints.len() + pose.skipped.len(), eval.joints.len());
+            }
+            assert!(
+                compared > 15 * 3,
+                "{method}: only {compared} joints compared"
+            );
+        }
+    }
 }

@@ -3,7 +3,9 @@
 //! every frame, and compares the errors with the Cramér–Rao bound of the same geometry.
 //!
 //! Every sensor observes the same instant (a [`trigait_sim::Snapshot`]), so the numbers measure
-//! the estimators alone; timing effects belong to the dataflow's summary.
+//! the estimators alone; timing effects belong to the dataflow's summary. Each snapshot is
+//! fused by [`trigait_fusion`], the code the dataflow's `trilaterate` node runs
+//! ([`observe_snapshot`]).
 //!
 //! Methods are compared like for like: the error statistics of every method
 //! ([`MethodReport::rmse_m`] and the rest) are computed on the *common* samples, those every
@@ -17,9 +19,11 @@ use std::collections::BTreeMap;
 use std::str::FromStr;
 
 use serde::Serialize;
-use trigait_sim::Simulator;
-use trigait_skeleton::{Joint, TrackingState};
-use trigait_trilateration::{Error as EstimateError, Method, Params, crb, estimate};
+use trigait_fusion::{FusedInstant, FusionRig, JointObservations, SensorSamples};
+use trigait_scoring::{PositionErrors, rmse};
+use trigait_sim::{Simulator, Snapshot};
+use trigait_skeleton::{JointSample, TrackingState};
+use trigait_trilateration::{Error as EstimateError, Method, Params, crb};
 
 /// A method to evaluate, optionally wrapped in robust outlier rejection.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -212,9 +216,7 @@ pub struct OwnScore {
 /// Per-method sums, mergeable across worker threads.
 #[derive(Debug, Clone, Default)]
 struct Tally {
-    errors: Vec<f64>,
-    squared_xyz: [f64; 3],
-    per_joint: BTreeMap<Joint, (f64, usize)>,
+    errors: PositionErrors,
     crb_trace: f64,
     failures: BTreeMap<&'static str, usize>,
     single: BTreeMap<usize, (f64, usize)>,
@@ -227,15 +229,7 @@ struct Tally {
 
 impl Tally {
     fn merge(&mut self, other: Tally) {
-        self.errors.extend(other.errors);
-        for i in 0..3 {
-            self.squared_xyz[i] += other.squared_xyz[i];
-        }
-        for (k, (s, n)) in other.per_joint {
-            let e = self.per_joint.entry(k).or_default();
-            e.0 += s;
-            e.1 += n;
-        }
+        self.errors.merge(other.errors);
         self.crb_trace += other.crb_trace;
         for (k, n) in other.failures {
             *self.failures.entry(k).or_default() += n;
@@ -299,6 +293,7 @@ pub fn evaluate(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Report {
     let threads = config.threads.clamp(1, config.trials.max(1));
+    let fusion = FusionRig::from_sensors(sim.sensors().to_vec());
     let done = std::sync::atomic::AtomicUsize::new(0);
     let mut total = Partial {
         tallies: vec![Tally::default(); config.methods.len()],
@@ -307,14 +302,14 @@ pub fn evaluate(
     std::thread::scope(|scope| {
         let workers: Vec<_> = (0..threads)
             .map(|worker| {
-                let done = &done;
+                let (done, fusion) = (&done, &fusion);
                 scope.spawn(move || {
                     let mut partial = Partial {
                         tallies: vec![Tally::default(); config.methods.len()],
                         ..Partial::default()
                     };
                     for trial in (worker..config.trials).step_by(threads) {
-                        run_trial(sim, config, trial, &mut partial);
+                        run_trial(sim, fusion, config, trial, &mut partial);
                         let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                         progress(finished);
                     }
@@ -331,16 +326,77 @@ pub fn evaluate(
     report(sim, rig_name, config, total)
 }
 
-fn run_trial(sim: &Simulator, config: &EvalConfig, trial: usize, partial: &mut Partial) {
+/// Every sensor's samples of one snapshot as the fusion's observations — the first half of
+/// [`trigait_fusion::fuse_instant`], the code the dataflow's `trilaterate` node runs on an
+/// aligned set; eval then calls [`trigait_fusion::Observed::estimate`] once per method.
+#[must_use]
+pub fn observe_snapshot(
+    fusion: &FusionRig,
+    sim: &Simulator,
+    snapshot: &Snapshot,
+) -> trigait_fusion::Observed {
+    with_samples(sim, snapshot, |views| fusion.observe(views))
+}
+
+/// One snapshot through [`trigait_fusion::fuse_instant`] with `params`.
+#[must_use]
+pub fn fuse_snapshot(
+    fusion: &FusionRig,
+    sim: &Simulator,
+    snapshot: &Snapshot,
+    params: &Params,
+) -> FusedInstant {
+    with_samples(sim, snapshot, |views| {
+        trigait_fusion::fuse_instant(fusion, views, params).0
+    })
+}
+
+fn with_samples<T>(
+    sim: &Simulator,
+    snapshot: &Snapshot,
+    f: impl FnOnce(&[SensorSamples<'_>]) -> T,
+) -> T {
+    let samples: Vec<Vec<JointSample>> = (0..sim.sensors().len())
+        .map(|s| snapshot.samples(sim, s))
+        .collect();
+    let views: Vec<SensorSamples<'_>> = sim
+        .sensors()
+        .iter()
+        .zip(&samples)
+        .map(|(sensor, joints)| SensorSamples {
+            sensor_id: &sensor.id,
+            joints,
+            resampling_error_m: &[],
+        })
+        .collect();
+    f(&views)
+}
+
+fn run_trial(
+    sim: &Simulator,
+    fusion: &FusionRig,
+    config: &EvalConfig,
+    trial: usize,
+    partial: &mut Partial,
+) {
     let seed = config.seed.wrapping_add(trial as u64);
     let mut rngs: Vec<_> = (0..sim.sensors().len())
         .map(|s| Simulator::sensor_rng(seed, s))
         .collect();
     let linear = Params::new(Method::Linear);
+    let params: Vec<Params> = config
+        .methods
+        .iter()
+        .map(|spec| spec.params(&config.params))
+        .collect();
     let motion = sim.motion();
+    let unseen = JointObservations::default();
     for frame in 0..motion.frame_count() {
         let t = frame as f64 / motion.rate_hz();
         let snapshot = sim.snapshot(t, &mut rngs);
+        let observed = observe_snapshot(fusion, sim, &snapshot);
+        let linear_fused = observed.estimate(&linear);
+        let fused: Vec<FusedInstant> = params.iter().map(|p| observed.estimate(p)).collect();
         for (column, joint) in sim.joints().iter().enumerate() {
             let Some(truth) = snapshot.truth.get(joint) else {
                 continue;
@@ -353,21 +409,26 @@ fn run_trial(sim: &Simulator, config: &EvalConfig, trial: usize, partial: &mut P
                     .map_or(TrackingState::NotTracked, trigait_kinect::Report::state);
                 partial.states[state as usize] += 1;
             }
-            let (sensors, observations) = snapshot.observations(sim, *joint);
-            let (_, at_truth) = snapshot.observations_at_truth(sim, *joint);
-            partial.reporting += sensors.len();
-            let single: Vec<(usize, f64)> = sensors
+            let seen = observed.joints.get(joint).unwrap_or(&unseen);
+            let at_truth = observed.at_truth(fusion, *joint, &snapshot.truth);
+            partial.reporting += seen.sensors.len();
+            let single: Vec<(usize, f64)> = seen
+                .sensors
                 .iter()
-                .zip(&observations)
+                .zip(&seen.observations)
                 .map(|(s, o)| (*s, (o.position_in_world() - truth).norm_squared()))
                 .collect();
-            let linear_error = estimate(&observations, &linear)
-                .ok()
+            let linear_error = linear_fused
+                .joints
+                .get(joint)
+                .and_then(|f| f.result.as_ref().ok())
                 .map(|e| (e.position - truth).norm_squared());
             let mut solved = Vec::with_capacity(config.methods.len());
-            for (spec, tally) in config.methods.iter().zip(&mut partial.tallies) {
-                match estimate(&observations, &spec.params(&config.params)) {
-                    Ok(e) => {
+            for ((spec, tally), fused) in
+                config.methods.iter().zip(&mut partial.tallies).zip(&fused)
+            {
+                match fused.joints.get(joint).map(|f| &f.result) {
+                    Some(Ok(e)) => {
                         let bound = if spec.method.is_range_only() {
                             crb::range_only(&at_truth)
                         } else {
@@ -380,8 +441,13 @@ fn run_trial(sim: &Simulator, config: &EvalConfig, trial: usize, partial: &mut P
                         tally.own_crb_trace += crb_trace;
                         solved.push(Some((error, crb_trace, e.diagnostics.rejected.len())));
                     }
-                    Err(err) => {
-                        *tally.failures.entry(failure_kind(&err)).or_default() += 1;
+                    Some(Err(err)) => {
+                        *tally.failures.entry(failure_kind(err)).or_default() += 1;
+                        solved.push(None);
+                    }
+                    // No sensor reported the joint.
+                    None => {
+                        *tally.failures.entry("too_few_sensors").or_default() += 1;
                         solved.push(None);
                     }
                 }
@@ -396,13 +462,7 @@ fn run_trial(sim: &Simulator, config: &EvalConfig, trial: usize, partial: &mut P
                 let Some((error, crb_trace, rejected)) = result else {
                     continue;
                 };
-                tally.errors.push(error.norm());
-                for i in 0..3 {
-                    tally.squared_xyz[i] += error[i] * error[i];
-                }
-                let pj = tally.per_joint.entry(*joint).or_default();
-                pj.0 += error.norm_squared();
-                pj.1 += 1;
+                tally.errors.push(*joint, error);
                 tally.crb_trace += crb_trace;
                 for (s, sq) in &single {
                     let entry = tally.single.entry(*s).or_default();
@@ -448,7 +508,7 @@ fn report(sim: &Simulator, rig_name: &str, config: &EvalConfig, total: Partial) 
 }
 
 fn method_report(sim: &Simulator, spec: &MethodSpec, mut t: Tally, samples: usize) -> MethodReport {
-    let solved = t.errors.len();
+    let solved = t.errors.count();
     let own = OwnScore {
         solved: t.own_solved,
         coverage: t.own_solved as f64 / samples.max(1) as f64,
@@ -456,18 +516,11 @@ fn method_report(sim: &Simulator, spec: &MethodSpec, mut t: Tally, samples: usiz
             .into_iter()
             .map(|(k, v)| (k.to_owned(), v))
             .collect(),
-        rmse_m: (t.own_squared / t.own_solved.max(1) as f64).sqrt(),
-        crb_rmse_m: (t.own_crb_trace / t.own_solved.max(1) as f64).sqrt(),
+        rmse_m: rmse(t.own_squared, t.own_solved),
+        crb_rmse_m: rmse(t.own_crb_trace, t.own_solved),
     };
     let n = solved.max(1) as f64;
-    let rmse = |sq: f64, count: usize| (sq / count.max(1) as f64).sqrt();
-    let squared: f64 = t.errors.iter().map(|e| e * e).sum();
-    t.errors.sort_by(f64::total_cmp);
-    let p95 = t
-        .errors
-        .get(((solved as f64 * 0.95).ceil() as usize).saturating_sub(1))
-        .copied()
-        .unwrap_or(f64::NAN);
+    let squared = t.errors.sum_of_squares();
     let crb_rmse = (t.crb_trace / n).sqrt();
     let best = t
         .single
@@ -478,18 +531,19 @@ fn method_report(sim: &Simulator, spec: &MethodSpec, mut t: Tally, samples: usiz
     MethodReport {
         method: spec.name(),
         own,
-        rmse_m: rmse(squared, solved),
-        mean_m: t.errors.iter().sum::<f64>() / n,
-        p95_m: p95,
-        max_m: t.errors.last().copied().unwrap_or(f64::NAN),
-        rmse_xyz_m: t.squared_xyz.map(|s| rmse(s, solved)),
+        rmse_m: t.errors.rmse_m(),
+        mean_m: t.errors.mean_m(),
+        p95_m: t.errors.percentile_m(0.95),
+        max_m: t.errors.max_m(),
+        rmse_xyz_m: t.errors.rmse_xyz_m(),
         per_joint_rmse_m: t
-            .per_joint
+            .errors
+            .per_joint_rmse_m()
             .into_iter()
-            .map(|(j, (sq, count))| (j.name().to_owned(), rmse(sq, count)))
+            .map(|(j, r)| (j.name().to_owned(), r))
             .collect(),
         crb_rmse_m: crb_rmse,
-        rmse_over_crb: rmse(squared, solved) / crb_rmse,
+        rmse_over_crb: t.errors.rmse_m() / crb_rmse,
         best_single_sensor: best.and_then(|(s, _)| sim.sensors().get(s).map(|s| s.id.clone())),
         best_single_sensor_rmse_m: best.map_or(f64::NAN, |b| b.1),
         gain_over_linear: 1.0 - (squared / t.linear_squared.max(f64::MIN_POSITIVE)).sqrt(),

@@ -7,7 +7,7 @@
 //!   time_uncertainty_nanos: Int64, missing: List<Utf8>,
 //!   sensors: List<Struct {
 //!     sensor_id: Utf8, skew_nanos: Int64, time_uncertainty_nanos: Int64, frame_seqs: List<UInt64>,
-//!     joints: List<Struct { joint: UInt8, position_m: FixedSizeList<Float64, 3> (camera frame),
+//!     joints: List<Struct { joint: UInt8, position_in_kinect_m: FixedSizeList<Float64, 3>,
 //!                           state: UInt8, interpolation_error_m: Float64 (nullable) }>
 //!   }>
 //! }
@@ -22,15 +22,15 @@ use trigait_skeleton::JointSample;
 use trigait_sync::{AlignedSet, Policy, SensorView};
 
 use crate::codec::{
-    Builder, Rows, decode_joint_samples, encode_joint_samples, f64_tuple, field, list_of,
-    list_range, nullable, struct_of,
+    Builder, POSITION_IN_KINECT, Rows, decode_joint_samples, encode_joint_samples, f64_tuple,
+    field, list_of, list_range, nullable, struct_of,
 };
 use crate::{Error, Message, Result};
 
 fn joint_fields() -> Fields {
     Fields::from(vec![
         field("joint", DataType::UInt8),
-        field("position_m", f64_tuple(3)),
+        field(POSITION_IN_KINECT, f64_tuple(3)),
         field("state", DataType::UInt8),
         nullable("interpolation_error_m", DataType::Float64),
     ])

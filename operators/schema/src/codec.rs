@@ -497,8 +497,22 @@ impl Tuples {
     }
 }
 
-/// The `joint`, `position_m` and `state` columns that every joint list on the wire shares,
-/// for a message to append its own extra columns to ([`decode_joint_samples`] reads them).
+/// The fields of [`encode_joint_samples`]: `joint`, `position_in_kinect_m` (camera frame),
+/// `state`.
+pub(crate) fn joint_sample_fields() -> Fields {
+    Fields::from(vec![
+        field("joint", DataType::UInt8),
+        field(POSITION_IN_KINECT, f64_tuple(3)),
+        field("state", DataType::UInt8),
+    ])
+}
+
+/// Name of a camera-frame position column.
+pub(crate) const POSITION_IN_KINECT: &str = "position_in_kinect_m";
+
+/// The `joint`, `position_in_kinect_m` and `state` columns that every sensor-frame joint list
+/// on the wire shares, for a message to append its own extra columns to
+/// ([`decode_joint_samples`] reads them).
 pub(crate) fn encode_joint_samples<'s>(
     b: &Builder,
     samples: impl Iterator<Item = &'s JointSample> + Clone,
@@ -513,7 +527,7 @@ pub(crate) fn encode_joint_samples<'s>(
     ])
 }
 
-/// Decodes the `joint`, `position_m` and `state` columns that every joint list on the wire
+/// Decodes the `joint`, `position_in_kinect_m` and `state` columns that every joint list on the wire
 /// shares, returning the struct array too so a message reads its own extra columns from it.
 pub(crate) fn decode_joint_samples<'a>(
     array: &'a dyn Array,
@@ -521,7 +535,7 @@ pub(crate) fn decode_joint_samples<'a>(
 ) -> Result<(Rows<'a>, Vec<JointSample>)> {
     let items = Rows::new(array, path)?;
     let joints = items.column::<UInt8Array>("joint")?;
-    let positions = items.tuples("position_m", 3)?;
+    let positions = items.tuples(POSITION_IN_KINECT, 3)?;
     let states = items.column::<UInt8Array>("state")?;
     let samples = items
         .rows()

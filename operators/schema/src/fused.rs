@@ -3,11 +3,12 @@
 //! ```text
 //! Struct {
 //!   set_seq: UInt64, stamp_nanos: Int64 (server clock),
-//!   joints: List<Struct { joint: UInt8, position_m: FixedSizeList<Float64, 3> (world frame),
-//!                         covariance_m2: FixedSizeList<Float64, 9> (row-major),
+//!   joints: List<Struct { joint: UInt8, position_in_world_m: FixedSizeList<Float64, 3>,
+//!                         covariance_in_world_m2: FixedSizeList<Float64, 9> (row-major),
 //!                         sensors_used: List<Utf8>, residual_m: Float64,
 //!                         condition_number: Float64, estimator: Utf8 }>,
-//!   skipped: List<Struct { joint: UInt8, reason: Utf8 }>
+//!   skipped: List<Struct { joint: UInt8, reason: Utf8 }>,
+//!   missing_sensors: List<Utf8>
 //! }
 //! ```
 
@@ -56,13 +57,15 @@ pub struct FusedPose {
     pub joints: BTreeMap<Joint, FusedJoint>,
     /// Joints not fused, with the reason (e.g. too few sensors).
     pub skipped: BTreeMap<Joint, String>,
+    /// Sensors expected but absent from the aligned set, sorted (`sync`'s `missing`).
+    pub missing_sensors: Vec<String>,
 }
 
 fn joint_fields() -> Fields {
     Fields::from(vec![
         field("joint", DataType::UInt8),
-        field("position_m", f64_tuple(3)),
-        field("covariance_m2", f64_tuple(9)),
+        field("position_in_world_m", f64_tuple(3)),
+        field("covariance_in_world_m2", f64_tuple(9)),
         field("sensors_used", list_of(DataType::Utf8)),
         field("residual_m", DataType::Float64),
         field("condition_number", DataType::Float64),
@@ -83,6 +86,7 @@ fn fields() -> Fields {
         field("stamp_nanos", DataType::Int64),
         field("joints", list_of(struct_of(joint_fields()))),
         field("skipped", list_of(struct_of(skipped_fields()))),
+        field("missing_sensors", list_of(DataType::Utf8)),
     ])
 }
 
@@ -131,6 +135,8 @@ impl Message for FusedPose {
         )?;
         let joint_lengths: Vec<usize> = messages.iter().map(|m| m.joints.len()).collect();
         let skipped_lengths: Vec<usize> = messages.iter().map(|m| m.skipped.len()).collect();
+        let missing_lengths: Vec<usize> =
+            messages.iter().map(|m| m.missing_sensors.len()).collect();
         b.structs(
             &fields(),
             vec![
@@ -138,6 +144,15 @@ impl Message for FusedPose {
                 b.values::<Int64Type>(messages.iter().map(|m| m.stamp_nanos)),
                 b.list(struct_of(joint_fields()), &joint_lengths, joint_items)?,
                 b.list(struct_of(skipped_fields()), &skipped_lengths, skipped_items)?,
+                b.list(
+                    DataType::Utf8,
+                    &missing_lengths,
+                    b.strings(
+                        messages
+                            .iter()
+                            .flat_map(|m| m.missing_sensors.iter().map(String::as_str)),
+                    ),
+                )?,
             ],
         )
     }
@@ -150,6 +165,7 @@ impl Message for FusedPose {
         let joints = decode_joints(joints_list.values().as_ref(), &joints_path)?;
         let (skipped_list, skipped_path) = top.nested("skipped")?;
         let skipped = decode_skipped(skipped_list.values().as_ref(), &skipped_path)?;
+        let missing = top.list::<StringArray>("missing_sensors")?;
 
         let mut out = Vec::with_capacity(top.array.len());
         for row in top.rows() {
@@ -183,6 +199,7 @@ impl Message for FusedPose {
                 stamp_nanos: stamps.get(row)?,
                 joints: fused,
                 skipped: skipped_map,
+                missing_sensors: missing.get(row)?,
             });
         }
         Ok(out)
@@ -192,8 +209,8 @@ impl Message for FusedPose {
 fn decode_joints(array: &dyn Array, path: &str) -> Result<Vec<(Joint, FusedJoint)>> {
     let items = Rows::new(array, path)?;
     let joints = items.column::<UInt8Array>("joint")?;
-    let positions = items.tuples("position_m", 3)?;
-    let covariances = items.tuples("covariance_m2", 9)?;
+    let positions = items.tuples("position_in_world_m", 3)?;
+    let covariances = items.tuples("covariance_in_world_m2", 9)?;
     let used_lists = items.list::<StringArray>("sensors_used")?;
     let residuals = items.column::<Float64Array>("residual_m")?;
     let conditions = items.column::<Float64Array>("condition_number")?;

@@ -3,11 +3,12 @@
 //!
 //! | message | edge | Rust type |
 //! |---|---|---|
-//! | `skeleton_frame` | `kinect-source → sync` | [`SkeletonFrameMessage`] (a [`trigait_skeleton::SkeletonFrame`] + per-joint confidence) |
+//! | `skeleton_frame` | `kinect-source → sync` | [`SkeletonFrameMessage`] (a [`trigait_skeleton::SkeletonFrame`]) |
 //! | `ntp_exchange` | `sync ↔ kinect-source` (thesis §6.4.1) | [`NtpExchange`] |
 //! | `aligned_set` | `sync → trilaterate` | [`trigait_sync::AlignedSet`] |
 //! | `fused_pose` | `trilaterate → recorder` | [`FusedPose`] |
 //! | `frame_timing` | `sync → recorder` | [`FrameTiming`] |
+//! | `ground_truth` | one simulated `kinect-source → recorder` | [`GroundTruth`] (world frame, once per true instant) |
 //! | `depth_frame` | `kinect-source → depth-metrics` (issue 6) | [`DepthFrameMessage`] |
 //!
 //! Port ids and metadata keys are in [`ports`].
@@ -16,12 +17,13 @@
 //! recording may hold many), nested with `List<Struct>` for joints and sensors. Points are
 //! `FixedSizeList<Float64, 3>` in metres, covariances `FixedSizeList<Float64, 9>` row-major in m²,
 //! timestamps `Int64` nanoseconds, joints `UInt8` Kinect v2 `JointType` numbers, tracking states
-//! `UInt8` SDK numbers. [`Message::data_type`] gives the exact type for `output_types` checks and
-//! for readers in other languages.
+//! `UInt8` SDK numbers. A position's field name says its frame: `position_in_kinect_m` (the
+//! sensor's camera space) or `position_in_world_m`. [`Message::data_type`] gives the exact type
+//! for `output_types` checks and for readers in other languages.
 //!
 //! Decoding never trusts its input: a wrong type, a missing column, a wrong tuple length, a null
 //! where a value is required or an out-of-range code is an [`Error`] naming the field by its
-//! dotted path (`aligned_set.sensors.joints.position_m`), never a panic.
+//! dotted path (`aligned_set.sensors.joints.position_in_kinect_m`), never a panic.
 //!
 //! Only `arrow-array`, `arrow-schema` and `arrow-buffer` are used, not the `arrow` umbrella: the
 //! umbrella also compiles compute kernels, casts and formatting (arrow-cast, -arith, -ord,
@@ -38,6 +40,7 @@ mod ntp;
 pub mod ports;
 mod skeleton;
 mod timing;
+mod truth;
 
 pub use arrow_array::{Array, ArrayRef};
 pub use arrow_schema::DataType;
@@ -46,6 +49,7 @@ pub use fused::{FusedJoint, FusedPose};
 pub use ntp::NtpExchange;
 pub use skeleton::SkeletonFrameMessage;
 pub use timing::FrameTiming;
+pub use truth::GroundTruth;
 
 /// What can go wrong encoding or decoding a message. `field` is a dotted path from the message
 /// name (`skeleton_frame.joints.state`); `row` indexes the array that field lives in.
@@ -151,44 +155,4 @@ pub trait Message: Sized {
             }),
         }
     }
-}
-
-/// Encodes a skeleton frame (`kinect-source → sync`).
-pub fn encode_skeleton_frame(frame: &SkeletonFrameMessage) -> Result<ArrayRef> {
-    frame.encode()
-}
-
-/// Decodes one skeleton frame.
-pub fn decode_skeleton_frame(array: &dyn Array) -> Result<SkeletonFrameMessage> {
-    SkeletonFrameMessage::decode(array)
-}
-
-/// Encodes an NTP request, reply or completed exchange (`sync ↔ kinect-source`).
-pub fn encode_ntp_exchange(exchange: &NtpExchange) -> Result<ArrayRef> {
-    exchange.encode()
-}
-
-/// Decodes one NTP exchange.
-pub fn decode_ntp_exchange(array: &dyn Array) -> Result<NtpExchange> {
-    NtpExchange::decode(array)
-}
-
-/// Encodes an aligned set (`sync → trilaterate`).
-pub fn encode_aligned_set(set: &trigait_sync::AlignedSet) -> Result<ArrayRef> {
-    set.encode()
-}
-
-/// Decodes one aligned set.
-pub fn decode_aligned_set(array: &dyn Array) -> Result<trigait_sync::AlignedSet> {
-    trigait_sync::AlignedSet::decode(array)
-}
-
-/// Encodes a fused pose (`trilaterate → recorder`).
-pub fn encode_fused_pose(pose: &FusedPose) -> Result<ArrayRef> {
-    pose.encode()
-}
-
-/// Decodes one fused pose.
-pub fn decode_fused_pose(array: &dyn Array) -> Result<FusedPose> {
-    FusedPose::decode(array)
 }

@@ -4,9 +4,10 @@
 //! | port | node | message | meaning |
 //! |---|---|---|---|
 //! | [`FRAME`] | `kinect-source` out | `skeleton_frame` | one body frame, camera frame, sensor clock |
-//! | [`GROUND_TRUTH`] | `kinect-source` out (simulated) | `skeleton_frame`, many rows | true joints in the **world** frame, `local_stamp_nanos` = true instant on the server clock |
+//! | [`GROUND_TRUTH`] | `kinect-source` out (one simulated source per graph), `recorder` in | `ground_truth`, many rows | true joints in the world frame at true instants on the server clock |
 //! | [`NTP_REPLY`] | `kinect-source` out | `ntp_exchange` | request answered with t2/t3 |
 //! | [`NTP_REQUEST`] | `sync` out | `ntp_exchange` | request with t1, addressed by `sensor_id` |
+//! | [`TICK`] | `sync` in | dora timer | paces NTP requests, set deadlines, timing batches |
 //! | [`ALIGNED_SET`] | `sync` out | `aligned_set` | frames of all sensors at one instant |
 //! | [`FRAME_TIMING`] | `sync` out | `frame_timing`, many rows | server-clock placement of frames |
 //! | [`FUSED_POSE`] | `trilaterate` out | `fused_pose` | world joints with covariance |
@@ -17,7 +18,8 @@
 
 /// `kinect-source` output: a `skeleton_frame`.
 pub const FRAME: &str = "frame";
-/// `kinect-source` output: ground truth (simulated sources only).
+/// `kinect-source` output (the one simulated source that sends it) and `recorder` input:
+/// ground truth.
 pub const GROUND_TRUTH: &str = "ground_truth";
 /// `kinect-source` output: the answered NTP request.
 pub const NTP_REPLY: &str = "ntp_reply";
@@ -27,6 +29,9 @@ pub const NTP_REQUEST: &str = "ntp_request";
 /// source a request reaches only its sensor; a single broadcast [`NTP_REQUEST`] reaches every
 /// source, n² deliveries per NTP round, which at 16 sensors queues frames behind requests.
 pub const NTP_REQUEST_OUTPUT_PREFIX: &str = "ntp_request_";
+/// `sync` input: the timer that paces NTP requests, set deadlines and timing batches
+/// (`dora/timer/millis/10`).
+pub const TICK: &str = "tick";
 /// `sync` output: aligned sets.
 pub const ALIGNED_SET: &str = "aligned_set";
 /// `sync` output: frame timings.
@@ -41,19 +46,16 @@ pub const DEPTH_INPUT_PREFIX: &str = "depth_";
 pub const FRAME_INPUT_PREFIX: &str = "frame_";
 /// `sync` input id prefix for a source's NTP replies: `ntp_k1`.
 pub const NTP_INPUT_PREFIX: &str = "ntp_";
-/// `recorder` input id prefix for a source's ground truth: `truth_k1`.
-pub const TRUTH_INPUT_PREFIX: &str = "truth_";
 
 /// Metadata key (integer, ns since the UNIX epoch): when the source sent the frame.
 pub const SENT_NANOS: &str = "trigait.sent_nanos";
-/// Metadata key (integer, ns): true capture instant on the server clock (simulated sources).
-pub const TRUE_CAPTURE_NANOS: &str = "trigait.true_capture_nanos";
+/// Metadata key (integer, ns) on a simulated frame: its true capture instant on the server clock,
+/// the `true_stamp_nanos` of [`crate::FrameTiming`] and [`crate::GroundTruth`].
+pub const TRUE_STAMP_NANOS: &str = "trigait.true_stamp_nanos";
 /// Metadata key (integer, ns): send time of the newest frame that made a set go out (or the
 /// `sync` clock when a deadline did); forwarded by `trilaterate`, read by `recorder` for the
 /// end-to-end latency.
 pub const TRIGGER_SENT_NANOS: &str = "trigait.trigger_sent_nanos";
-/// Metadata key (integer): how many sensors an aligned set lacks.
-pub const MISSING_SENSORS: &str = "trigait.missing_sensors";
 
 /// The sensor id of a `sync`/`recorder` input id with `prefix` (`frame_k1` → `k1`).
 #[must_use]

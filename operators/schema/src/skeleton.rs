@@ -3,56 +3,37 @@
 //! ```text
 //! Struct {
 //!   sensor_id: Utf8, seq: UInt64, local_stamp_nanos: Int64 (sensor clock),
-//!   joints: List<Struct { joint: UInt8, position_m: FixedSizeList<Float64, 3> (camera frame),
-//!                         state: UInt8, confidence: Float32 (nullable) }>
+//!   joints: List<Struct { joint: UInt8, position_in_kinect_m: FixedSizeList<Float64, 3>,
+//!                         state: UInt8 }>
 //! }
 //! ```
 
-use arrow_array::types::{Float32Type, Int64Type, UInt64Type};
-use arrow_array::{Array, ArrayRef, Float32Array, Int64Array, StringArray, UInt64Array};
+use arrow_array::types::{Int64Type, UInt64Type};
+use arrow_array::{Array, ArrayRef, Int64Array, StringArray, UInt64Array};
 use arrow_schema::{DataType, Fields};
 use trigait_skeleton::{JointSample, SkeletonFrame};
 
 use crate::codec::{
-    Builder, Rows, decode_joint_samples, encode_joint_samples, f64_tuple, field, list_of,
-    list_range, nullable, struct_of,
+    Builder, Rows, decode_joint_samples, encode_joint_samples, field, joint_sample_fields, list_of,
+    list_range, struct_of,
 };
-use crate::{Error, Message, Result};
+use crate::{Message, Result};
 
-/// A [`SkeletonFrame`] as sent, with a per-joint confidence in [0, 1] where the body tracker
-/// gives one (the Kinect v2 SDK does not: `None`; a depth-based tracker may).
+/// A [`SkeletonFrame`] as sent.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SkeletonFrameMessage {
     /// The frame.
     pub frame: SkeletonFrame,
-    /// One entry per `frame.joints`, same order; empty means "none given" (all `None`).
-    pub confidence: Vec<Option<f32>>,
 }
 
 impl From<SkeletonFrame> for SkeletonFrameMessage {
     fn from(frame: SkeletonFrame) -> Self {
-        SkeletonFrameMessage {
-            frame,
-            confidence: Vec::new(),
-        }
-    }
-}
-
-impl SkeletonFrameMessage {
-    /// The confidence of joint sample `i`, if given.
-    #[must_use]
-    pub fn confidence_of(&self, i: usize) -> Option<f32> {
-        self.confidence.get(i).copied().flatten()
+        SkeletonFrameMessage { frame }
     }
 }
 
 fn joint_fields() -> Fields {
-    Fields::from(vec![
-        field("joint", DataType::UInt8),
-        field("position_m", f64_tuple(3)),
-        field("state", DataType::UInt8),
-        nullable("confidence", DataType::Float32),
-    ])
+    joint_sample_fields()
 }
 
 fn fields() -> Fields {
@@ -75,24 +56,8 @@ impl Message for SkeletonFrameMessage {
         let b = Builder {
             message: Self::NAME,
         };
-        for (row, m) in messages.iter().enumerate() {
-            if !m.confidence.is_empty() && m.confidence.len() != m.frame.joints.len() {
-                return Err(Error::Encode {
-                    message: Self::NAME,
-                    detail: format!(
-                        "row {row}: {} confidences for {} joints",
-                        m.confidence.len(),
-                        m.frame.joints.len()
-                    ),
-                });
-            }
-        }
         let samples = messages.iter().flat_map(|m| m.frame.joints.iter());
-        let confidence = messages
-            .iter()
-            .flat_map(|m| (0..m.frame.joints.len()).map(|i| m.confidence_of(i)));
-        let mut columns = encode_joint_samples(&b, samples)?;
-        columns.push(b.optionals::<Float32Type>(confidence));
+        let columns = encode_joint_samples(&b, samples)?;
         let joints = b.structs(&joint_fields(), columns)?;
         let lengths: Vec<usize> = messages.iter().map(|m| m.frame.joints.len()).collect();
         b.structs(
@@ -112,13 +77,12 @@ impl Message for SkeletonFrameMessage {
         let seqs = top.column::<UInt64Array>("seq")?;
         let stamps = top.column::<Int64Array>("local_stamp_nanos")?;
         let (joints_list, joints_path) = top.nested("joints")?;
-        let (items, confidence) = decode_joints(joints_list.values().as_ref(), &joints_path)?;
+        let (_, items) = decode_joint_samples(joints_list.values().as_ref(), &joints_path)?;
 
         let mut out = Vec::with_capacity(top.array.len());
         for row in top.rows() {
             let range = list_range(joints_list, &joints_path, row)?;
-            let joints: Vec<JointSample> = items[range.clone()].to_vec();
-            let conf: Vec<Option<f32>> = confidence[range].to_vec();
+            let joints: Vec<JointSample> = items[range].to_vec();
             out.push(SkeletonFrameMessage {
                 frame: SkeletonFrame {
                     sensor_id: sensor_ids.get(row)?,
@@ -126,21 +90,8 @@ impl Message for SkeletonFrameMessage {
                     local_stamp_nanos: stamps.get(row)?,
                     joints,
                 },
-                confidence: if conf.iter().all(Option::is_none) {
-                    Vec::new()
-                } else {
-                    conf
-                },
             });
         }
         Ok(out)
     }
-}
-
-/// Decodes the flat joint items of the `joints` list.
-fn decode_joints(array: &dyn Array, path: &str) -> Result<(Vec<JointSample>, Vec<Option<f32>>)> {
-    let (items, samples) = decode_joint_samples(array, path)?;
-    let extra = items.column::<Float32Array>("confidence")?;
-    let confidence = items.rows().map(|row| extra.optional(row)).collect();
-    Ok((samples, confidence))
 }

@@ -13,9 +13,7 @@ use arrow_schema::{DataType, Field, Fields};
 use nalgebra::{Matrix3, Point3};
 use proptest::prelude::*;
 use trigait_schema::{
-    Error, FusedJoint, FusedPose, Message, NtpExchange, SkeletonFrameMessage, decode_aligned_set,
-    decode_fused_pose, decode_ntp_exchange, decode_skeleton_frame, encode_aligned_set,
-    encode_fused_pose, encode_ntp_exchange, encode_skeleton_frame,
+    Error, FusedJoint, FusedPose, GroundTruth, Message, NtpExchange, SkeletonFrameMessage,
 };
 use trigait_skeleton::{Joint, JointSample, SkeletonFrame, TrackingState};
 use trigait_sync::{AlignedSet, Policy, SensorView};
@@ -51,24 +49,16 @@ fn skeleton() -> impl Strategy<Value = SkeletonFrameMessage> {
         ".{0,12}",
         any::<u64>(),
         any::<i64>(),
-        prop::collection::vec((sample(), prop::option::of(0.0_f32..1.0)), 0..26),
-        any::<bool>(),
+        prop::collection::vec(sample(), 0..26),
     )
-        .prop_map(
-            |(sensor_id, seq, local_stamp_nanos, joints, with_confidence)| {
-                let confidence: Vec<Option<f32>> = joints.iter().map(|(_, c)| *c).collect();
-                let given = with_confidence && confidence.iter().any(Option::is_some);
-                SkeletonFrameMessage {
-                    frame: SkeletonFrame {
-                        sensor_id,
-                        seq,
-                        local_stamp_nanos,
-                        joints: joints.into_iter().map(|(s, _)| s).collect(),
-                    },
-                    confidence: if given { confidence } else { Vec::new() },
-                }
-            },
-        )
+        .prop_map(|(sensor_id, seq, local_stamp_nanos, joints)| {
+            SkeletonFrameMessage::from(SkeletonFrame {
+                sensor_id,
+                seq,
+                local_stamp_nanos,
+                joints,
+            })
+        })
 }
 
 fn ntp() -> impl Strategy<Value = NtpExchange> {
@@ -155,44 +145,70 @@ fn fused() -> impl Strategy<Value = FusedPose> {
         any::<i64>(),
         prop::collection::btree_map(joint(), fused_joint(), 0..7),
         prop::collection::btree_map(joint(), ".{0,20}", 0..3),
+        prop::collection::vec("[a-z0-9]{1,4}", 0..3),
     )
-        .prop_map(|(set_seq, stamp_nanos, joints, skipped)| FusedPose {
-            set_seq,
-            stamp_nanos,
-            joints,
-            skipped,
+        .prop_map(
+            |(set_seq, stamp_nanos, joints, skipped, missing_sensors)| FusedPose {
+                set_seq,
+                stamp_nanos,
+                joints,
+                skipped,
+                missing_sensors,
+            },
+        )
+}
+
+fn truth() -> impl Strategy<Value = GroundTruth> {
+    (
+        any::<i64>(),
+        prop::collection::btree_map(joint(), point(), 0..25),
+    )
+        .prop_map(|(true_stamp_nanos, position_in_world)| GroundTruth {
+            true_stamp_nanos,
+            position_in_world,
         })
 }
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(128))]
 
+    /// Ground truth batches (one row per instant) decode to the same instants and positions,
+    /// and its column says the world frame.
+    #[test]
+    fn ground_truth_round_trips(ms in prop::collection::vec(truth(), 0..6)) {
+        let array = GroundTruth::encode_many(&ms).unwrap();
+        prop_assert_eq!(array.data_type(), &GroundTruth::data_type());
+        let described = format!("{:?}", GroundTruth::data_type());
+        prop_assert!(described.contains("position_in_world_m"), "{}", described);
+        prop_assert_eq!(GroundTruth::decode_many(array.as_ref()).unwrap(), ms);
+    }
+
     #[test]
     fn skeleton_frame_round_trips(m in skeleton()) {
-        let array = encode_skeleton_frame(&m).unwrap();
+        let array = SkeletonFrameMessage::encode(&m).unwrap();
         prop_assert_eq!(array.data_type(), &SkeletonFrameMessage::data_type());
-        prop_assert_eq!(decode_skeleton_frame(array.as_ref()).unwrap(), m);
+        prop_assert_eq!(SkeletonFrameMessage::decode(array.as_ref()).unwrap(), m);
     }
 
     #[test]
     fn ntp_exchange_round_trips(m in ntp()) {
-        let array = encode_ntp_exchange(&m).unwrap();
+        let array = NtpExchange::encode(&m).unwrap();
         prop_assert_eq!(array.data_type(), &NtpExchange::data_type());
-        prop_assert_eq!(decode_ntp_exchange(array.as_ref()).unwrap(), m);
+        prop_assert_eq!(NtpExchange::decode(array.as_ref()).unwrap(), m);
     }
 
     #[test]
     fn aligned_set_round_trips(m in aligned()) {
-        let array = encode_aligned_set(&m).unwrap();
+        let array = AlignedSet::encode(&m).unwrap();
         prop_assert_eq!(array.data_type(), &AlignedSet::data_type());
-        prop_assert_eq!(decode_aligned_set(array.as_ref()).unwrap(), m);
+        prop_assert_eq!(AlignedSet::decode(array.as_ref()).unwrap(), m);
     }
 
     #[test]
     fn fused_pose_round_trips(m in fused()) {
-        let array = encode_fused_pose(&m).unwrap();
+        let array = FusedPose::encode(&m).unwrap();
         prop_assert_eq!(array.data_type(), &FusedPose::data_type());
-        prop_assert_eq!(decode_fused_pose(array.as_ref()).unwrap(), m);
+        prop_assert_eq!(FusedPose::decode(array.as_ref()).unwrap(), m);
     }
 
     /// Several messages in one array (a recording) decode in order; a slice of it decodes to the
@@ -211,20 +227,20 @@ proptest! {
     #[test]
     fn damaged_columns_are_named(f in fused(), a in aligned(), s in skeleton(), n in ntp(), pick in any::<prop::sample::Index>(), replace in any::<bool>()) {
         for (name, array) in [
-            ("fused_pose", encode_fused_pose(&f).unwrap()),
-            ("aligned_set", encode_aligned_set(&a).unwrap()),
-            ("skeleton_frame", encode_skeleton_frame(&s).unwrap()),
-            ("ntp_exchange", encode_ntp_exchange(&n).unwrap()),
+            ("fused_pose", FusedPose::encode(&f).unwrap()),
+            ("aligned_set", AlignedSet::encode(&a).unwrap()),
+            ("skeleton_frame", SkeletonFrameMessage::encode(&s).unwrap()),
+            ("ntp_exchange", NtpExchange::encode(&n).unwrap()),
         ] {
             let top = array.as_any().downcast_ref::<StructArray>().unwrap();
             let i = pick.index(top.num_columns());
             let victim = top.fields()[i].name().clone();
             let damaged = damage(top, i, replace);
             let err = match name {
-                "fused_pose" => decode_fused_pose(damaged.as_ref()).map(|_| ()).unwrap_err(),
-                "aligned_set" => decode_aligned_set(damaged.as_ref()).map(|_| ()).unwrap_err(),
-                "skeleton_frame" => decode_skeleton_frame(damaged.as_ref()).map(|_| ()).unwrap_err(),
-                _ => decode_ntp_exchange(damaged.as_ref()).map(|_| ()).unwrap_err(),
+                "fused_pose" => FusedPose::decode(damaged.as_ref()).map(|_| ()).unwrap_err(),
+                "aligned_set" => AlignedSet::decode(damaged.as_ref()).map(|_| ()).unwrap_err(),
+                "skeleton_frame" => SkeletonFrameMessage::decode(damaged.as_ref()).map(|_| ()).unwrap_err(),
+                _ => NtpExchange::decode(damaged.as_ref()).map(|_| ()).unwrap_err(),
             };
             let field = format!("{name}.{victim}");
             match &err {
@@ -322,7 +338,7 @@ fn knee(state: TrackingState) -> JointSample {
 #[test]
 fn wrong_top_level_type() {
     let array: ArrayRef = Arc::new(UInt64Array::from(vec![1_u64]));
-    let err = decode_skeleton_frame(array.as_ref()).unwrap_err();
+    let err = SkeletonFrameMessage::decode(array.as_ref()).unwrap_err();
     assert_eq!(
         err,
         Error::WrongType {
@@ -337,10 +353,11 @@ fn wrong_top_level_type() {
     );
 }
 
-/// A position with two coordinates is a length error naming `position_m`.
+/// A position with two coordinates is a length error naming `position_in_kinect_m`.
 #[test]
 fn position_of_wrong_length() {
-    let array = encode_skeleton_frame(&frame_with(vec![knee(TrackingState::Tracked)])).unwrap();
+    let array =
+        SkeletonFrameMessage::encode(&frame_with(vec![knee(TrackingState::Tracked)])).unwrap();
     let pair = FixedSizeListArray::try_new(
         Arc::new(Field::new_list_field(DataType::Float64, false)),
         2,
@@ -348,12 +365,12 @@ fn position_of_wrong_length() {
         None,
     )
     .unwrap();
-    let damaged = with_joint_column(&array, "position_m", Arc::new(pair));
-    let err = decode_skeleton_frame(damaged.as_ref()).unwrap_err();
+    let damaged = with_joint_column(&array, "position_in_kinect_m", Arc::new(pair));
+    let err = SkeletonFrameMessage::decode(damaged.as_ref()).unwrap_err();
     assert_eq!(
         err,
         Error::BadLength {
-            field: "skeleton_frame.joints.position_m".into(),
+            field: "skeleton_frame.joints.position_in_kinect_m".into(),
             expected: 3,
             found: 2
         }
@@ -363,15 +380,16 @@ fn position_of_wrong_length() {
 /// Joint number 30 and tracking state 7 are invalid values naming their field.
 #[test]
 fn out_of_range_codes() {
-    let array = encode_skeleton_frame(&frame_with(vec![knee(TrackingState::Tracked); 2])).unwrap();
+    let array =
+        SkeletonFrameMessage::encode(&frame_with(vec![knee(TrackingState::Tracked); 2])).unwrap();
     let damaged = with_joint_column(&array, "joint", Arc::new(UInt8Array::from(vec![13, 30])));
-    let err = decode_skeleton_frame(damaged.as_ref()).unwrap_err();
+    let err = SkeletonFrameMessage::decode(damaged.as_ref()).unwrap_err();
     assert!(
         matches!(&err, Error::InvalidValue { field, row: 1, value, .. } if field == "skeleton_frame.joints.joint" && value == "30"),
         "{err}"
     );
     let damaged = with_joint_column(&array, "state", Arc::new(UInt8Array::from(vec![7, 2])));
-    let err = decode_skeleton_frame(damaged.as_ref()).unwrap_err();
+    let err = SkeletonFrameMessage::decode(damaged.as_ref()).unwrap_err();
     assert!(
         matches!(&err, Error::InvalidValue { field, row: 0, .. } if field == "skeleton_frame.joints.state"),
         "{err}"
@@ -381,14 +399,15 @@ fn out_of_range_codes() {
 /// A null where a value is required is an error with the field and row.
 #[test]
 fn null_required_value() {
-    let array = encode_skeleton_frame(&frame_with(vec![knee(TrackingState::Inferred); 2])).unwrap();
+    let array =
+        SkeletonFrameMessage::encode(&frame_with(vec![knee(TrackingState::Inferred); 2])).unwrap();
     let damaged = with_joint_column(
         &array,
         "state",
         Arc::new(UInt8Array::from(vec![Some(1), None])),
     );
     assert_eq!(
-        decode_skeleton_frame(damaged.as_ref()).unwrap_err(),
+        SkeletonFrameMessage::decode(damaged.as_ref()).unwrap_err(),
         Error::NullValue {
             field: "skeleton_frame.joints.state".into(),
             row: 1
@@ -407,7 +426,7 @@ fn unknown_policy_name() {
         missing: vec![],
         time_uncertainty_nanos: 0,
     };
-    let array = encode_aligned_set(&set).unwrap();
+    let array = AlignedSet::encode(&set).unwrap();
     let top = array.as_any().downcast_ref::<StructArray>().unwrap();
     let i = top
         .fields()
@@ -417,7 +436,7 @@ fn unknown_policy_name() {
     let mut columns = top.columns().to_vec();
     columns[i] = Arc::new(StringArray::from(vec!["tdma"]));
     let damaged = StructArray::try_new(top.fields().clone(), columns, None).unwrap();
-    let err = decode_aligned_set(&damaged).unwrap_err();
+    let err = AlignedSet::decode(&damaged).unwrap_err();
     assert!(
         matches!(&err, Error::InvalidValue { field, value, .. } if field == "aligned_set.policy" && value == "tdma"),
         "{err}"
@@ -459,20 +478,6 @@ fn row_count() {
     );
 }
 
-/// A confidence list that does not match the joints cannot be encoded.
-#[test]
-fn confidence_length_mismatch() {
-    let mut m = frame_with(vec![knee(TrackingState::Tracked); 3]);
-    m.confidence = vec![Some(0.5)];
-    assert!(matches!(
-        encode_skeleton_frame(&m),
-        Err(Error::Encode {
-            message: "skeleton_frame",
-            ..
-        })
-    ));
-}
-
 /// Covariances are row-major on the wire: element (0, 1) is the second value.
 #[test]
 fn covariance_is_row_major() {
@@ -494,8 +499,9 @@ fn covariance_is_row_major() {
         stamp_nanos: 1,
         joints,
         skipped: BTreeMap::from([(Joint::Head, "1 sensor < 3".into())]),
+        missing_sensors: Vec::new(),
     };
-    let array = encode_fused_pose(&pose).unwrap();
+    let array = FusedPose::encode(&pose).unwrap();
     let top = array.as_any().downcast_ref::<StructArray>().unwrap();
     let list = top
         .column_by_name("joints")
@@ -509,7 +515,7 @@ fn covariance_is_row_major() {
         .downcast_ref::<StructArray>()
         .unwrap();
     let cov = items
-        .column_by_name("covariance_m2")
+        .column_by_name("covariance_in_world_m2")
         .unwrap()
         .as_any()
         .downcast_ref::<FixedSizeListArray>()
@@ -520,7 +526,7 @@ fn covariance_is_row_major() {
         values.values().to_vec(),
         (1..=9).map(f64::from).collect::<Vec<_>>()
     );
-    assert_eq!(decode_fused_pose(array.as_ref()).unwrap(), pose);
+    assert_eq!(FusedPose::decode(array.as_ref()).unwrap(), pose);
 }
 
 /// Any message decoded as any other message type is an error, not a panic or a wrong value.
@@ -548,19 +554,20 @@ fn messages_are_not_interchangeable() {
         stamp_nanos: 2,
         joints: BTreeMap::new(),
         skipped: BTreeMap::new(),
+        missing_sensors: vec!["k3".into()],
     };
     let arrays = [
-        encode_skeleton_frame(&frame_with(vec![knee(TrackingState::Tracked)])).unwrap(),
-        encode_ntp_exchange(&NtpExchange::request("k1", 1, 2)).unwrap(),
-        encode_aligned_set(&set).unwrap(),
-        encode_fused_pose(&pose).unwrap(),
+        SkeletonFrameMessage::encode(&frame_with(vec![knee(TrackingState::Tracked)])).unwrap(),
+        NtpExchange::encode(&NtpExchange::request("k1", 1, 2)).unwrap(),
+        AlignedSet::encode(&set).unwrap(),
+        FusedPose::encode(&pose).unwrap(),
     ];
     for (i, array) in arrays.iter().enumerate() {
         let results = [
-            decode_skeleton_frame(array.as_ref()).is_ok(),
-            decode_ntp_exchange(array.as_ref()).is_ok(),
-            decode_aligned_set(array.as_ref()).is_ok(),
-            decode_fused_pose(array.as_ref()).is_ok(),
+            SkeletonFrameMessage::decode(array.as_ref()).is_ok(),
+            NtpExchange::decode(array.as_ref()).is_ok(),
+            AlignedSet::decode(array.as_ref()).is_ok(),
+            FusedPose::decode(array.as_ref()).is_ok(),
         ];
         for (j, ok) in results.into_iter().enumerate() {
             assert_eq!(ok, i == j, "message {i} decoded as {j}");

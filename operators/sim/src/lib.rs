@@ -4,15 +4,22 @@
 //!
 //! Two ways to sample it:
 //! - [`Simulator::snapshot`]: every sensor at the same instant. This isolates the estimator
-//!   from timing and is what `trigait eval` measures (the "static sets" of the dataflow issue).
+//!   from timing and is what `trigait eval` measures.
 //! - [`Simulator::frame`]: one sensor's [`SkeletonFrame`] at its own capture time and clock,
 //!   what the dataflow's `kinect-source` node emits.
+//!
+//! [`clock`] gives the sensors clocks with offset, drift and jitter and links with LAN-like
+//! delays (what the sync code is tested against); [`stream`] turns a sensor into the timed
+//! stream of frames — and the ground truth — a dataflow source sends.
 //!
 //! Determinism: every draw comes from an RNG the caller passes; [`Simulator::sensor_rng`] gives
 //! each sensor its own stream from one seed, so a sensor produces the same frames whether it
 //! runs alone in a dataflow process or with the others in `trigait eval`.
 
 #![warn(missing_docs)]
+
+pub mod clock;
+pub mod stream;
 
 use std::collections::BTreeMap;
 
@@ -21,8 +28,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use trigait_kinect::{NoiseModel, Report, Sensor, occlusion};
 use trigait_rig::Rig;
-use trigait_skeleton::{Joint, JointSample, MotionClip, SkeletonFrame, TrackingState};
-use trigait_trilateration::Observation;
+use trigait_skeleton::{Joint, JointSample, MotionClip, SkeletonFrame};
 
 /// Kinect v2 depth frame period: 30 frames per second (thesis Table 6.1).
 pub const FRAME_PERIOD_SECS: f64 = 1.0 / 30.0;
@@ -175,19 +181,7 @@ impl Simulator {
         local_stamp_nanos: i64,
         rng: &mut impl rand::Rng,
     ) -> SkeletonFrame {
-        let joints = self
-            .joints
-            .iter()
-            .zip(self.reports(sensor, t_secs, rng))
-            .filter_map(|(joint, report)| {
-                let report = report?;
-                Some(JointSample {
-                    joint: *joint,
-                    position_in_kinect: report.position_in_kinect?,
-                    state: report.state(),
-                })
-            })
-            .collect();
+        let joints = samples(&self.joints, &self.reports(sensor, t_secs, rng));
         SkeletonFrame {
             sensor_id: self
                 .sensors
@@ -200,91 +194,38 @@ impl Simulator {
     }
 }
 
-/// One sensor's estimator input for `joint`: where the sensor has it (`position(joint)`, in
-/// its kinect frame) weighed by the sensor's noise model there, for its tracking `state` and
-/// the limb axis from the neighbouring joints it has (`position` again). `None` when
-/// `position(joint)` is.
-///
-/// The one place observations are made: `trigait eval` (through [`Snapshot::observations`])
-/// and the dataflow's `trilaterate` node both call it, so they fuse with the same weights.
-#[must_use]
-pub fn observation(
-    sensor: &Sensor,
-    joint: Joint,
-    state: TrackingState,
-    position: impl Fn(Joint) -> Option<Point3<f64>>,
-) -> Option<Observation> {
-    let p = position(joint)?;
-    let limb = trigait_kinect::limb_axis(joint, &position);
-    let covariance = sensor.covariance_in_kinect(joint, &p, state, limb);
-    Some(Observation::new(sensor.world_from_kinect, p, covariance))
+impl Snapshot {
+    /// What sensor `sensor` reported, as the joint samples a frame carries (camera frame;
+    /// joints it did not report are absent), in [`Simulator::joints`] order.
+    #[must_use]
+    pub fn samples(&self, sim: &Simulator, sensor: usize) -> Vec<JointSample> {
+        self.reports
+            .get(sensor)
+            .map(|reports| samples(&sim.joints, reports))
+            .unwrap_or_default()
+    }
 }
 
-impl Snapshot {
-    /// The estimator inputs for `joint`: one [`Observation`] per sensor that reported it, weighed
-    /// by the sensor model at the *reported* position (what a receiver knows), with the indices
-    /// of those sensors.
-    #[must_use]
-    pub fn observations(&self, sim: &Simulator, joint: Joint) -> (Vec<usize>, Vec<Observation>) {
-        self.collect(sim, joint, |_, reports, j| {
-            let column = sim.joints.iter().position(|c| *c == j)?;
-            reports.get(column)?.as_ref()?.position_in_kinect
+/// Reports (in `joints` order) as the joint samples a frame carries.
+fn samples(joints: &[Joint], reports: &[Option<Report>]) -> Vec<JointSample> {
+    joints
+        .iter()
+        .zip(reports)
+        .filter_map(|(joint, report)| {
+            let report = report.as_ref()?;
+            Some(JointSample {
+                joint: *joint,
+                position_in_kinect: report.position_in_kinect?,
+                state: report.state(),
+            })
         })
-    }
-
-    /// The same sensors' observations placed at the *true* position with the model's covariance
-    /// there: the geometry the Cramér–Rao bound is evaluated on.
-    #[must_use]
-    pub fn observations_at_truth(
-        &self,
-        sim: &Simulator,
-        joint: Joint,
-    ) -> (Vec<usize>, Vec<Observation>) {
-        if !self.truth.contains_key(&joint) {
-            return (Vec::new(), Vec::new());
-        }
-        self.collect(sim, joint, |sensor, _, j| {
-            let truth = self.truth.get(&j)?;
-            Some(sensor.world_from_kinect.inverse_transform_point(truth))
-        })
-    }
-
-    /// Observations of `joint` by every sensor that reported it; `position(sensor, reports, j)`
-    /// says where that sensor has joint `j` (reported or true), which also gives the limb axis
-    /// the noise weights depend on.
-    fn collect(
-        &self,
-        sim: &Simulator,
-        joint: Joint,
-        position: impl Fn(&Sensor, &[Option<Report>], Joint) -> Option<Point3<f64>>,
-    ) -> (Vec<usize>, Vec<Observation>) {
-        let Some(column) = sim.joints.iter().position(|j| *j == joint) else {
-            return (Vec::new(), Vec::new());
-        };
-        let mut indices = Vec::new();
-        let mut observations = Vec::new();
-        for (i, (sensor, reports)) in sim.sensors.iter().zip(&self.reports).enumerate() {
-            let Some(Some(report)) = reports.get(column) else {
-                continue;
-            };
-            if report.position_in_kinect.is_none() {
-                continue;
-            }
-            let Some(o) = observation(sensor, joint, report.state(), |j| {
-                position(sensor, reports, j)
-            }) else {
-                continue;
-            };
-            indices.push(i);
-            observations.push(o);
-        }
-        (indices, observations)
-    }
+        .collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use trigait_skeleton::TrackingState;
 
     fn standing_clip() -> MotionClip {
         MotionClip::from_fn("stand", 30.0, 1.0, Joint::LEGS.to_vec(), |j, _| {
@@ -303,8 +244,8 @@ mod tests {
         .unwrap()
     }
 
-    /// Each sensor reports every leg joint of a walker in its view, reproducibly per seed, and
-    /// observations carry the sensor's pose.
+    /// Each sensor reports every leg joint of a walker in its view, reproducibly per seed, near
+    /// the truth once mapped through the sensor's pose.
     #[test]
     fn snapshot_reports_visible_joints() {
         let rig = Rig::builtin("thesis").unwrap();
@@ -313,18 +254,14 @@ mod tests {
         let a = sim.snapshot(0.5, &mut rngs());
         let b = sim.snapshot(0.5, &mut rngs());
         assert_eq!(a.truth.len(), 6);
-        for joint in Joint::LEGS {
-            let (ia, oa) = a.observations(&sim, joint);
-            let (ib, ob) = b.observations(&sim, joint);
-            assert_eq!(ia, ib);
-            assert_eq!(oa, ob);
-            assert_eq!(ia, vec![0, 1, 2], "{joint}");
-            for (i, o) in ia.iter().zip(&oa) {
-                assert_eq!(o.world_from_kinect, rig.sensors[*i].world_from_kinect);
-                assert!((o.position_in_world() - a.truth[&joint]).norm() < 0.2);
+        for (i, s) in rig.sensors.iter().enumerate() {
+            let (sa, sb) = (a.samples(&sim, i), b.samples(&sim, i));
+            assert_eq!(sa, sb);
+            assert_eq!(sa.len(), 6, "sensor {i} sees every leg joint");
+            for sample in &sa {
+                let in_world = s.world_from_kinect * sample.position_in_kinect;
+                assert!((in_world - a.truth[&sample.joint]).norm() < 0.2);
             }
-            let (_, at_truth) = a.observations_at_truth(&sim, joint);
-            assert!((at_truth[0].position_in_world() - a.truth[&joint]).norm() < 1e-12);
         }
     }
 

@@ -19,9 +19,9 @@
 //!    ≈ 20 cm for an ankle at 4 m/s), and reports an interpolation error budget per joint.
 //!
 //! Time is `i64` nanoseconds everywhere (`_nanos`); positions are metres in each sensor's Kinect
-//! camera frame (x left, y up, z out of the lens) — this crate never changes frames. [`sim`]
-//! provides clocks with offset, drift and jitter and links with asymmetric, heavy-tailed delays,
-//! deterministic from a seed, for tests and for the simulator's sensors.
+//! camera frame (x left, y up, z out of the lens) — this crate never changes frames. Simulated
+//! clocks (offset, drift, jitter) and links (asymmetric, heavy-tailed delays) to test it against
+//! are in `trigait_sim::clock`.
 //!
 //! ```
 //! use trigait_skeleton::{Joint, JointSample, SkeletonFrame, TrackingState};
@@ -65,7 +65,6 @@ mod filter;
 pub mod ntp;
 mod params;
 mod schedule;
-pub mod sim;
 
 pub use buffer::{AlignedSet, SensorView, SyncBuffer, SyncCounters, TimedFrame};
 pub use error::{Error, Result};

@@ -1,7 +1,7 @@
 //! Clock sync accuracy on simulated LAN links: issue 4's figure (offset error < 1 ms for ≥ 99 % of
 //! frames with offsets up to ±50 ms and drift up to 100 ppm), step recovery.
 
-use trigait_sync::sim::{LinkDelay, SimClock, SimSensorLink};
+use trigait_sim::clock::{LinkDelay, SimClock, SimSensorLink};
 use trigait_sync::{SampleOutcome, SyncBuffer, SyncParams};
 
 const FRAME_PERIOD: i64 = 33_333_333;

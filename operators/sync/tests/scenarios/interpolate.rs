@@ -2,8 +2,8 @@
 //! comparison with `slots` on a moving ankle behind simulated clocks.
 
 use nalgebra::{Point3, Vector3};
+use trigait_sim::clock::{LinkDelay, SimClock, SimSensorLink};
 use trigait_skeleton::{Joint, TrackingState};
-use trigait_sync::sim::{LinkDelay, SimClock, SimSensorLink};
 use trigait_sync::{AlignedSet, Interpolation, Policy, SyncBuffer, SyncParams, TimedFrame};
 
 use super::{ankle, linear, timed};

@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Exp, Gamma, Normal};
 
-use crate::NtpSample;
+use trigait_sync::NtpSample;
 
 /// A sensor clock: `local = true + offset + drift·true + jitter`.
 #[derive(Debug, Clone, Copy, PartialEq)]

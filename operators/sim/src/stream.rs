@@ -1,0 +1,394 @@
+//! Sensors as the timed streams a dataflow source sends: when the next frame is due on the host
+//! clock, the frame captured then (camera frame, stamped by the sensor's own clock), and — for
+//! one simulated sensor of the rig — the ground truth since the previous frame.
+//!
+//! - [`SimulatedSensor`]: the [`Simulator`] playing an endless lap (out and back along the
+//!   walkway) at the sensor's frame rate and phase.
+//! - [`ReplayedSensor`]: a recorded Kinect v2 SDK skeleton file played back at the frame rate
+//!   or as fast as possible, optionally looped.
+//! - [`SensorClock`]: the host clock (the server clock of a one-host graph) seen through a
+//!   simulated offset, drift and jitter ([`crate::clock::SimClock`]), which stamps both.
+
+use rand_chacha::ChaCha8Rng;
+use trigait_kinect::NoiseModel;
+use trigait_motion::SdkFrame;
+use trigait_rig::Rig;
+use trigait_schema::GroundTruth;
+use trigait_skeleton::{Joint, MotionClip, SkeletonFrame};
+
+use crate::Simulator;
+use crate::clock::SimClock;
+
+/// Spacing of ground-truth instants, ns: fine enough that interpolating them at any fusion
+/// instant is exact to well under a millimetre.
+pub const TRUTH_STEP_NANOS: i64 = 2_000_000;
+
+/// Why a stream cannot be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum StreamError {
+    /// The sensor id is not in the rig.
+    #[error("{sensor:?} is not in rig {rig:?} (sensors: {known})")]
+    UnknownSensor {
+        /// The id asked for.
+        sensor: String,
+        /// The rig's name.
+        rig: String,
+        /// The rig's sensor ids, comma-separated.
+        known: String,
+    },
+    /// The motion has none of the joints to report.
+    #[error("motion {motion:?} defines none of the joints to report")]
+    NoJoints {
+        /// The motion's name.
+        motion: String,
+    },
+    /// A frame rate that is not a positive number of nanoseconds per frame.
+    #[error("frame period {period_nanos} ns is not positive")]
+    BadPeriod {
+        /// The period asked for.
+        period_nanos: i64,
+    },
+}
+
+/// One capture.
+#[derive(Debug, Clone)]
+pub struct Captured {
+    /// The frame as the sensor reports it (camera frame, sensor clock).
+    pub frame: SkeletonFrame,
+    /// True capture instant on the server clock (simulation only).
+    pub true_stamp_nanos: Option<i64>,
+    /// Ground truth since the previous capture, one entry per instant (the truth-sending
+    /// simulated sensor only).
+    pub truth: Vec<GroundTruth>,
+}
+
+/// The sensor's clock: the host clock seen through a simulated offset, drift and jitter, drift
+/// counted from the stream's start.
+#[derive(Debug, Clone)]
+pub struct SensorClock {
+    clock: SimClock,
+    start_nanos: i64,
+    rng: ChaCha8Rng,
+}
+
+impl SensorClock {
+    /// `clock` starting to drift at host time `start_nanos`, its jitter drawn from `rng`.
+    #[must_use]
+    pub fn new(clock: SimClock, start_nanos: i64, rng: ChaCha8Rng) -> Self {
+        Self {
+            clock,
+            start_nanos,
+            rng,
+        }
+    }
+
+    /// What the sensor clock reads at host time `true_nanos`.
+    pub fn local(&mut self, true_nanos: i64) -> i64 {
+        self.start_nanos
+            + self
+                .clock
+                .local_from_true(true_nanos - self.start_nanos, &mut self.rng)
+    }
+}
+
+/// How a simulated sensor runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulatedSensorParams {
+    /// The sensor's id in the rig.
+    pub sensor_id: String,
+    /// Joints reported (those the motion lacks are dropped).
+    pub joints: Vec<Joint>,
+    /// Noise seed (each sensor of the rig draws its own stream from it).
+    pub seed: u64,
+    /// Frame period, ns.
+    pub period_nanos: i64,
+    /// Capture phase on the frame grid, ns (`None`: the sensor's share of a period by its
+    /// index in the rig, so the sensors of a rig capture evenly staggered).
+    pub phase_nanos: Option<i64>,
+    /// Whether this sensor sends the ground truth (`None`: only the rig's first sensor does,
+    /// so each true instant is sent once per graph).
+    pub ground_truth: Option<bool>,
+}
+
+/// A simulated sensor playing `lap` endlessly.
+#[derive(Debug, Clone)]
+pub struct SimulatedSensor {
+    sim: Simulator,
+    index: usize,
+    rng: ChaCha8Rng,
+    lap_nanos: i64,
+    period_nanos: i64,
+    next_nanos: i64,
+    seq: u64,
+    sends_truth: bool,
+    last_truth_nanos: Option<i64>,
+}
+
+impl SimulatedSensor {
+    /// The sensor `params.sensor_id` of `rig` watching `lap` (a motion on the walkway that
+    /// ends where it starts, e.g. [`lap`]), its first frame due at or after host time `now`.
+    ///
+    /// # Errors
+    /// [`StreamError`]: a sensor the rig lacks, a motion without the joints, a bad period.
+    pub fn new(
+        rig: &Rig,
+        lap: MotionClip,
+        params: &SimulatedSensorParams,
+        now: i64,
+    ) -> Result<Self, StreamError> {
+        let index = rig
+            .sensors
+            .iter()
+            .position(|s| s.id == params.sensor_id)
+            .ok_or_else(|| StreamError::UnknownSensor {
+                sensor: params.sensor_id.clone(),
+                rig: rig.name.clone(),
+                known: rig
+                    .sensors
+                    .iter()
+                    .map(|s| s.id.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })?;
+        if params.period_nanos <= 0 {
+            return Err(StreamError::BadPeriod {
+                period_nanos: params.period_nanos,
+            });
+        }
+        let lap_nanos = (lap.duration_secs() * 1e9).round() as i64;
+        let name = lap.name().to_owned();
+        let sim = Simulator::new(rig, lap, &params.joints, &NoiseModel::default());
+        if sim.joints().is_empty() {
+            return Err(StreamError::NoJoints { motion: name });
+        }
+        let period = params.period_nanos;
+        let phase = params.phase_nanos.unwrap_or_else(|| {
+            (period as f64 * index as f64 / rig.sensors.len() as f64).round() as i64
+        });
+        Ok(Self {
+            rng: Simulator::sensor_rng(params.seed, index),
+            sim,
+            index,
+            lap_nanos: lap_nanos.max(1),
+            period_nanos: period,
+            next_nanos: next_on_grid(now, period, phase.rem_euclid(period)),
+            seq: 0,
+            sends_truth: params.ground_truth.unwrap_or(index == 0),
+            last_truth_nanos: None,
+        })
+    }
+
+    /// Host time of the next capture.
+    #[must_use]
+    pub fn next_due(&self) -> i64 {
+        self.next_nanos
+    }
+
+    /// Whether this sensor sends the ground truth.
+    #[must_use]
+    pub fn sends_truth(&self) -> bool {
+        self.sends_truth
+    }
+
+    fn clip_secs(&self, true_nanos: i64) -> f64 {
+        true_nanos.rem_euclid(self.lap_nanos) as f64 * 1e-9
+    }
+
+    /// Captures the frame due ([`Self::next_due`]), stamped by `clock`, with the ground truth
+    /// on the [`TRUTH_STEP_NANOS`] grid since the previous capture (up to its instant).
+    pub fn capture(&mut self, clock: &mut SensorClock) -> Captured {
+        let t = self.next_nanos;
+        let local = clock.local(t);
+        let frame = self.sim.frame(
+            self.index,
+            self.seq,
+            self.clip_secs(t),
+            local,
+            &mut self.rng,
+        );
+        let mut truth = Vec::new();
+        if self.sends_truth {
+            let from = self
+                .last_truth_nanos
+                .map_or(t - self.period_nanos, |l| l + 1);
+            let mut g = from.div_euclid(TRUTH_STEP_NANOS)
+                + i64::from(from.rem_euclid(TRUTH_STEP_NANOS) != 0);
+            while g * TRUTH_STEP_NANOS <= t {
+                let at = g * TRUTH_STEP_NANOS;
+                truth.push(GroundTruth {
+                    true_stamp_nanos: at,
+                    position_in_world: self.sim.truth(self.clip_secs(at)),
+                });
+                self.last_truth_nanos = Some(at);
+                g += 1;
+            }
+        }
+        self.seq += 1;
+        self.next_nanos = t + self.period_nanos;
+        Captured {
+            frame,
+            true_stamp_nanos: Some(t),
+            truth,
+        }
+    }
+}
+
+/// A recorded skeleton file played back as sensor `sensor_id`.
+#[derive(Debug, Clone)]
+pub struct ReplayedSensor {
+    id: String,
+    frames: Vec<SdkFrame>,
+    at: usize,
+    fast: bool,
+    looped: bool,
+    period_nanos: i64,
+    next_nanos: i64,
+    seq: u64,
+}
+
+impl ReplayedSensor {
+    /// `frames` as sensor `sensor_id`, one every `period_nanos` from host time `now` (or as
+    /// fast as asked for when `fast`), from the start again at the end when `looped`.
+    #[must_use]
+    pub fn new(
+        sensor_id: String,
+        frames: Vec<SdkFrame>,
+        period_nanos: i64,
+        fast: bool,
+        looped: bool,
+        now: i64,
+    ) -> Self {
+        Self {
+            id: sensor_id,
+            frames,
+            at: 0,
+            fast,
+            looped,
+            period_nanos,
+            next_nanos: now,
+            seq: 0,
+        }
+    }
+
+    /// Host time of the next frame; `None` when the file is played out.
+    #[must_use]
+    pub fn next_due(&self) -> Option<i64> {
+        (self.at < self.frames.len()).then_some(self.next_nanos)
+    }
+
+    /// The next recorded frame, stamped at host time `now` by `clock`.
+    pub fn capture(&mut self, now: i64, clock: &mut SensorClock) -> Option<Captured> {
+        let recorded = self.frames.get(self.at)?;
+        let frame = SkeletonFrame {
+            sensor_id: self.id.clone(),
+            seq: self.seq,
+            local_stamp_nanos: clock.local(now),
+            joints: recorded.joints.clone(),
+        };
+        self.seq += 1;
+        self.at += 1;
+        if self.at == self.frames.len() && self.looped {
+            self.at = 0;
+        }
+        self.next_nanos = if self.fast {
+            now
+        } else {
+            self.next_nanos + self.period_nanos
+        };
+        Some(Captured {
+            frame,
+            true_stamp_nanos: None,
+            truth: Vec::new(),
+        })
+    }
+}
+
+/// The first instant `phase + k·period` at or after `now`.
+#[must_use]
+pub fn next_on_grid(now: i64, period_nanos: i64, phase_nanos: i64) -> i64 {
+    let k = (now - phase_nanos).div_euclid(period_nanos);
+    let t = k * period_nanos + phase_nanos;
+    if t < now { t + period_nanos } else { t }
+}
+
+/// `clip` placed on the walkway as an endless lap: out and back.
+///
+/// # Errors
+/// As [`trigait_motion::there_and_back`].
+pub fn lap(clip: &MotionClip) -> trigait_motion::Result<MotionClip> {
+    trigait_motion::there_and_back(&clip.placed_on_walkway())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The grid: the first instant at or after `now`, on `phase + k·period`.
+    #[test]
+    fn capture_grid() {
+        assert_eq!(next_on_grid(100, 30, 5), 125);
+        assert_eq!(next_on_grid(125, 30, 5), 125);
+        assert_eq!(next_on_grid(-7, 30, 5), 5);
+    }
+
+    fn walker_lap() -> MotionClip {
+        let walk =
+            trigait_motion::walker(&trigait_motion::WalkerParams::default(), 2.5, 100.0).unwrap();
+        lap(&walk).unwrap()
+    }
+
+    fn params(id: &str) -> SimulatedSensorParams {
+        SimulatedSensorParams {
+            sensor_id: id.into(),
+            joints: Joint::LEGS.to_vec(),
+            seed: 1,
+            period_nanos: 33_333_333,
+            phase_nanos: None,
+            ground_truth: None,
+        }
+    }
+
+    /// Only the rig's first sensor sends truth by default, every 2 ms with no hole or overlap
+    /// up to each capture; the others send none unless asked; an unknown sensor is an error
+    /// naming the rig's sensors.
+    #[test]
+    fn truth_is_sent_once_per_instant() {
+        let rig = Rig::builtin("thesis").unwrap();
+        let start = 1_700_000_000_000_000_000;
+        let clock = || {
+            SensorClock::new(
+                SimClock::new(-40_000_000, 0.0),
+                start,
+                Simulator::sensor_rng(1, 0),
+            )
+        };
+        let mut k1 = SimulatedSensor::new(&rig, walker_lap(), &params("k1"), start).unwrap();
+        let mut k2 = SimulatedSensor::new(&rig, walker_lap(), &params("k2"), start).unwrap();
+        assert!(k1.sends_truth() && !k2.sends_truth());
+        let (mut c1, mut c2) = (clock(), clock());
+        let mut last = None;
+        for _ in 0..20 {
+            let due = k1.next_due();
+            let cap = k1.capture(&mut c1);
+            assert_eq!(cap.frame.local_stamp_nanos - due, -40_000_000);
+            for row in &cap.truth {
+                if let Some(l) = last {
+                    assert_eq!(row.true_stamp_nanos - l, TRUTH_STEP_NANOS);
+                }
+                last = Some(row.true_stamp_nanos);
+                assert_eq!(row.position_in_world.len(), 6);
+            }
+            assert!(last.unwrap() <= due && due - last.unwrap() < TRUTH_STEP_NANOS);
+            assert!(k2.capture(&mut c2).truth.is_empty());
+        }
+        let forced = SimulatedSensorParams {
+            ground_truth: Some(true),
+            ..params("k3")
+        };
+        let mut k3 = SimulatedSensor::new(&rig, walker_lap(), &forced, start).unwrap();
+        assert!(!k3.capture(&mut clock()).truth.is_empty());
+        let err = SimulatedSensor::new(&rig, walker_lap(), &params("k9"), start).unwrap_err();
+        assert!(err.to_string().contains("k1, k2, k3"), "{err}");
+    }
+}
