@@ -94,6 +94,49 @@ pub fn env_flag(
     }
 }
 
+/// `key` parsed by its type's [`FromStr`] (an estimator, a sync policy, a backend: any enum
+/// whose parse error says what it accepts), `default` when it is not set.
+///
+/// # Errors
+/// `"{node}: {key}={raw:?} is invalid: {the type's parse error}"`.
+pub fn env_parsed<T>(
+    node: &str,
+    lookup: &impl Fn(&str) -> Option<String>,
+    key: &str,
+    default: T,
+) -> eyre::Result<T>
+where
+    T: FromStr,
+    T::Err: std::fmt::Display,
+{
+    let Some(raw) = lookup(key) else {
+        return Ok(default);
+    };
+    raw.trim()
+        .parse::<T>()
+        .map_err(|e| eyre::eyre!("{node}: {key}={raw:?} is invalid: {e}"))
+}
+
+/// The `RIG` variable (`thesis`, `ring-N` or a rig YAML file), parsed once at configuration
+/// time, `thesis` when it is not set.
+///
+/// # Errors
+/// `"{node}: RIG={raw:?}: {why}"` when the name is unknown or the file cannot be read or is not
+/// a valid rig.
+pub fn env_rig(
+    node: &str,
+    lookup: &impl Fn(&str) -> Option<String>,
+) -> eyre::Result<trigait_rig::Rig> {
+    let raw = lookup(RIG).unwrap_or_else(|| DEFAULT_RIG.to_owned());
+    trigait_rig::Rig::from_spec(raw.trim()).map_err(|e| eyre::eyre!("{node}: {RIG}={raw:?}: {e}"))
+}
+
+/// The variable every node that needs sensor poses reads them from.
+pub const RIG: &str = "RIG";
+
+/// The rig of the thesis set-up, used when `RIG` is not set.
+pub const DEFAULT_RIG: &str = "thesis";
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -130,6 +173,54 @@ mod tests {
         let n: Option<u64> = env_value("node", &lookup, "UNSET", |_| true, "").unwrap();
         assert_eq!(n, None);
         assert!(env_value::<u64>("node", &lookup, "N", |_| true, "a count").is_err());
+    }
+
+    /// Enums parse through their `FromStr`, and a bad value carries the type's own reason.
+    #[test]
+    fn parsed_values() {
+        #[derive(Debug, PartialEq)]
+        enum Policy {
+            Slots,
+            Interpolate,
+        }
+        impl FromStr for Policy {
+            type Err = String;
+            fn from_str(s: &str) -> Result<Self, String> {
+                match s {
+                    "slots" => Ok(Self::Slots),
+                    "interpolate" => Ok(Self::Interpolate),
+                    _ => Err("expected slots or interpolate".into()),
+                }
+            }
+        }
+        let lookup = env(&[("P", " slots "), ("X", "magic")]);
+        assert_eq!(
+            env_parsed("n", &lookup, "P", Policy::Interpolate).unwrap(),
+            Policy::Slots
+        );
+        assert_eq!(
+            env_parsed("n", &lookup, "UNSET", Policy::Interpolate).unwrap(),
+            Policy::Interpolate
+        );
+        let err = env_parsed("n", &lookup, "X", Policy::Slots)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            err,
+            r#"n: X="magic" is invalid: expected slots or interpolate"#
+        );
+    }
+
+    /// The rig is read once: a built-in name, the default, or an error naming node and value.
+    #[test]
+    fn rigs() {
+        let ring = env(&[("RIG", "ring-5")]);
+        assert_eq!(env_rig("n", &ring).unwrap().sensors.len(), 5);
+        assert_eq!(env_rig("n", &env(&[])).unwrap().sensors.len(), 3);
+        let err = env_rig("n", &env(&[("RIG", "/no/such/rig.yml")]))
+            .unwrap_err()
+            .to_string();
+        assert!(err.starts_with(r#"n: RIG="/no/such/rig.yml": "#), "{err}");
     }
 
     /// Switches: unset gives the default; true/yes/1 and false/no/0; anything else is an error.
