@@ -261,8 +261,16 @@ impl Body {
             });
         }
         let head_r = 0.18 * tl;
+        let dir = torso / tl;
+        // Neck, then the head on it.
         ellipsoids.push(Ellipsoid {
-            centre: top + torso / tl * (0.25 * tl + head_r),
+            centre: top + dir * (0.06 * tl),
+            axes: torso_axes,
+            semi_m: Vector3::new(0.1 * tl, 0.11 * tl, 0.14 * tl),
+            part: Part::Trunk,
+        });
+        ellipsoids.push(Ellipsoid {
+            centre: top + dir * (0.14 * tl + head_r),
             axes: torso_axes,
             semi_m: Vector3::new(head_r * 1.1, head_r * 0.9, head_r * 1.25),
             part: Part::Trunk,
