@@ -201,6 +201,8 @@ pub(crate) struct LegFit {
     pub shank_seen: f64,
     /// Foot: centre of the points below the ankle, if enough.
     pub foot: Option<Point3<f64>>,
+    /// Horizontal distance between the thigh and the shank lines at the knee, metres.
+    pub knee_gap_m: f64,
     /// Hip→knee as found by the breakpoint, if the knee was bent enough to place it.
     pub thigh_measured: Option<f64>,
     /// Knee (at `FitInput::thigh_for_shank` from the hip) → ankle over the sole.
@@ -351,6 +353,7 @@ pub(crate) fn fit_leg(
         thigh_seen: seen(knee_h_now + BAND_M, thigh_top),
         shank_seen: seen(shank_bottom, knee_h_now - BAND_M),
         foot,
+        knee_gap_m: (thigh.at(knee_h_now) - shank.at(knee_h_now)).norm(),
         thigh_measured,
         shank_measured,
     })

@@ -310,6 +310,10 @@ type Assign = dyn Fn(&Vector2<f64>, f64) -> Option<usize>;
 /// An ankle that moved less than this since the last frame stands (0.45 m/s at 30 Hz), metres.
 const STILL_ANKLE_M: f64 = 0.015;
 
+/// How much better (summed gap between thigh and shank lines at the knees, metres) the
+/// exchanged lower legs must join up to be taken.
+const SWAP_MARGIN_M: f64 = 0.04;
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -557,7 +561,6 @@ impl LegTracker {
         }
         let min_pts = self.config.min_band_points as f64;
         let params_floor_tol = self.config.segment.floor_tolerance_m;
-        let mut on_floor_legs = [false; 2];
         let ankle_above = self.config.ankle_height_ratio * stature;
         let input = FitInput {
             hip_h,
@@ -578,34 +581,57 @@ impl LegTracker {
             },
             min_band_points: min_pts,
         };
-        let mut fits: [Option<LegFit>; 2] = [None, None];
-        for k in 0..2 {
-            let Some(sole_band) = bands[k].iter().position(|b| b.n >= min_pts) else {
-                continue;
-            };
-            // The floor cut hides the lowest centimetres: a foot whose lowest band sits just
-            // above the cut stands on the floor.
-            let lowest = bands[k][sole_band].centre(min_pts).map_or(0.0, |c| c.1);
-            // ... and a foot in stance is still (a swing foot skims the floor toes first).
-            let still = self
-                .legs
-                .as_ref()
-                .is_none_or(|l| (l[k].pose.ankle - l[k].previous.ankle).norm() < STILL_ANKLE_M);
-            let on_floor = lowest < params_floor_tol + BAND_M && still;
-            let sole_h = if on_floor { 0.0 } else { lowest - 0.5 * BAND_M };
-            // Foot: the points below the ankle.
-            let (mut sum, mut n) = (Vector3::zeros(), 0.0);
-            for b in bands[k]
-                .iter()
-                .take(((sole_h + ankle_above) / BAND_M).ceil() as usize)
-            {
-                if let Some((c, h, _)) = b.centre(1.0) {
-                    sum += ff.join(&c, h).coords * b.n;
-                    n += b.n;
+        let legs_now = self.legs.clone();
+        let fit_both = |bands: &[Vec<Band>; 2]| {
+            let mut fits: [Option<LegFit>; 2] = [None, None];
+            let mut on_floor_legs = [false; 2];
+            for k in 0..2 {
+                let Some(sole_band) = bands[k].iter().position(|b| b.n >= min_pts) else {
+                    continue;
+                };
+                // The floor cut hides the lowest centimetres: a foot whose lowest band sits
+                // just above the cut stands on the floor ...
+                let lowest = bands[k][sole_band].centre(min_pts).map_or(0.0, |c| c.1);
+                // ... and a foot in stance is still (a swing foot skims the floor toes first).
+                let still = legs_now
+                    .as_ref()
+                    .is_none_or(|l| (l[k].pose.ankle - l[k].previous.ankle).norm() < STILL_ANKLE_M);
+                let on_floor = lowest < params_floor_tol + BAND_M && still;
+                let sole_h = if on_floor { 0.0 } else { lowest - 0.5 * BAND_M };
+                // Foot: the points below the ankle.
+                let (mut sum, mut n) = (Vector3::zeros(), 0.0);
+                for b in bands[k]
+                    .iter()
+                    .take(((sole_h + ankle_above) / BAND_M).ceil() as usize)
+                {
+                    if let Some((c, h, _)) = b.centre(1.0) {
+                        sum += ff.join(&c, h).coords * b.n;
+                        n += b.n;
+                    }
                 }
+                on_floor_legs[k] = on_floor;
+                fits[k] = fit_leg(&ff, &bands[k], sole_h, on_floor, (sum, n), &input);
             }
-            on_floor_legs[k] = on_floor;
-            fits[k] = fit_leg(&ff, &bands[k], sole_h, on_floor, (sum, n), &input);
+            (fits, on_floor_legs)
+        };
+        let (mut fits, mut on_floor_legs) = fit_both(&bands);
+        // Where the legs pass each other the lower legs may have gone to the wrong chains: a
+        // leg's thigh and shank lines meet at its knee, a thigh and the other leg's shank do
+        // not. Try the lower legs exchanged below the predicted knees and keep what joins up.
+        if let (Some(pred), [Some(a), Some(b)]) = (predicted, &fits) {
+            let knee_h =
+                0.5 * (ff.split(&pred[0].knee.coords).1 + ff.split(&pred[1].knee.coords).1);
+            let split = ((knee_h / BAND_M).floor().max(0.0) as usize).min(n_bands);
+            let mut swapped = bands.clone();
+            let (lo0, lo1) = swapped.split_at_mut(1);
+            lo0[0][..split].swap_with_slice(&mut lo1[0][..split]);
+            let (alt, alt_floor) = fit_both(&swapped);
+            if let [Some(c), Some(d)] = &alt
+                && c.knee_gap_m + d.knee_gap_m + SWAP_MARGIN_M < a.knee_gap_m + b.knee_gap_m
+            {
+                fits = alt;
+                on_floor_legs = alt_floor;
+            }
         }
         if self.held.is_none() {
             for (f, on_floor) in fits.iter().zip(on_floor_legs) {
