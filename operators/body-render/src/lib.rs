@@ -1,0 +1,403 @@
+//! Simulated Kinect v2 depth frames of a walking body, with the joint centres that made them.
+//!
+//! A depth-based body tracker needs depth images with known joints to be tested without a
+//! sensor. This crate renders them: joint centres (the parametric walker or mocap) drive a body
+//! surface ([`body`]: tapered, non-circular ellipsoid chains for pelvis, thighs, shanks, feet,
+//! torso and head), which is ray-cast into one sensor's 512×424 image from its pose in the rig,
+//! in front of the floor and the walls of a room ([`Room`]). The image is then corrupted the way
+//! a Kinect v2 corrupts it:
+//!
+//! - **time-of-flight noise per pixel**, growing with distance and with the incidence angle of
+//!   the ray on the surface ([`trigait_kinect::NoiseModel::tof_sigma_m`], Fankhauser et al.
+//!   2015), so limb silhouettes, seen at grazing angles, are noisier than their centre lines;
+//! - **edge dropout** and **flying pixels** along depth discontinuities: the pixel footprint
+//!   straddles two surfaces, and the sensor reports either nothing (thesis §3.4, §5.1.4: a 1–2
+//!   pixel no-data band along contours) or a depth between them (mixed pixels);
+//! - no return at grazing incidence (beyond 80°) and outside the 0.5–8 m range.
+//!
+//! Each frame also carries the ground-truth joint centres in the sensor's camera space and the
+//! body's label image, so a tracker can be scored per joint and a segmentation per pixel.
+//!
+//! Pixel convention: that of [`trigait_kinect::Intrinsics::project`] (camera space x left, y up,
+//! z out of the lens; the column grows to the sensor's right, the row grows down); pixel (u, v)
+//! covers [u, u+1) × [v, v+1).
+//!
+//! Speed: the room is cast once per sensor; per frame only the pixels inside each ellipsoid's
+//! projected bounding square are tested, so a frame costs a few milliseconds on one core (see
+//! `benches/render.rs`).
+
+pub mod body;
+
+use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use trigait_depth::{DepthFrame, HEIGHT, PIXELS, WIDTH};
+use trigait_kinect::{Intrinsics, NoiseModel};
+use trigait_skeleton::Joint;
+
+pub use body::{Body, BodyShape, Ellipsoid, Part};
+
+/// Errors of the renderer.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[non_exhaustive]
+pub enum Error {
+    /// A joint the body needs is absent, not finite, or makes a degenerate segment.
+    #[error("the body needs joint {0:?} at a finite position with non-degenerate segments")]
+    MissingJoint(Joint),
+    /// A parameter out of its range.
+    #[error("{name} = {value} is invalid: expected {expected}")]
+    BadParameter {
+        /// Parameter name.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// What was expected.
+        expected: &'static str,
+    },
+    /// The intrinsics are not the 512×424 depth camera.
+    #[error("the camera must be {WIDTH}×{HEIGHT} pixels")]
+    BadCamera,
+}
+
+/// Result alias of the renderer.
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// The room behind the walker: floor at world z = 0, four walls and a ceiling of a box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Room {
+    /// World x of the walls across the walkway, metres.
+    pub x_range_m: (f64, f64),
+    /// World y of the side walls, metres.
+    pub y_range_m: (f64, f64),
+    /// Ceiling height, metres.
+    pub height_m: f64,
+}
+
+impl Default for Room {
+    /// A 12 m × 7 m gait lab, 3 m high, centred on the walkway (room for the thesis rig's
+    /// 4.6 m triangle and the walk beyond it).
+    fn default() -> Self {
+        Self {
+            x_range_m: (-6.0, 6.0),
+            y_range_m: (-3.5, 3.5),
+            height_m: 3.0,
+        }
+    }
+}
+
+/// Sensor effects.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderParams {
+    /// The depth camera.
+    pub intrinsics: Intrinsics,
+    /// Time-of-flight noise model (only [`NoiseModel::tof_sigma_m`] and the range are used).
+    pub noise: NoiseModel,
+    /// A pixel is on a discontinuity when a 4-neighbour's depth differs by more than this, m.
+    pub edge_jump_m: f64,
+    /// Share of discontinuity pixels on the near side that read 0 (thesis §5.1.4).
+    pub edge_dropout: f64,
+    /// Share of discontinuity pixels on the near side that read a depth between the two
+    /// surfaces (flying pixels).
+    pub flying_pixels: f64,
+    /// Add noise, dropout and flying pixels (off: the noise-free geometry, for tests).
+    pub noisy: bool,
+    /// RNG seed.
+    pub seed: u64,
+}
+
+impl Default for RenderParams {
+    fn default() -> Self {
+        Self {
+            intrinsics: Intrinsics::default(),
+            noise: NoiseModel::default(),
+            edge_jump_m: 0.05,
+            edge_dropout: 0.5,
+            flying_pixels: 0.25,
+            noisy: true,
+            seed: 1,
+        }
+    }
+}
+
+/// One rendered frame.
+#[derive(Debug, Clone)]
+pub struct Rendered {
+    /// What the sensor reports, mm (0 = no data).
+    pub depth: DepthFrame,
+    /// Which body [`Part`] each pixel's surface belongs to ([`Part::label`]; 0 = room), before
+    /// dropout.
+    pub labels: Vec<u8>,
+    /// Ground-truth joint centres in camera space (x left, y up, z out), metres.
+    pub joints_in_kinect: Vec<(Joint, Point3<f64>)>,
+}
+
+impl Rendered {
+    /// The ground-truth camera-space position of `joint`, if the pose had it.
+    #[must_use]
+    pub fn joint(&self, joint: Joint) -> Option<Point3<f64>> {
+        self.joints_in_kinect
+            .iter()
+            .find(|(j, _)| *j == joint)
+            .map(|(_, p)| *p)
+    }
+
+    /// Pixels whose surface is the body.
+    #[must_use]
+    pub fn body_mask(&self) -> Vec<bool> {
+        self.labels.iter().map(|&l| l != 0).collect()
+    }
+}
+
+/// Renders one sensor's frames.
+#[derive(Debug, Clone)]
+pub struct Renderer {
+    params: RenderParams,
+    kinect_from_world: Isometry3<f64>,
+    /// Ray direction (z = 1) of every pixel centre in camera space.
+    rays: Vec<Vector3<f64>>,
+    /// Depth of the room per pixel, metres (∞ = nothing).
+    room_z: Vec<f64>,
+    /// Incidence angle on the room per pixel, radians.
+    room_incidence: Vec<f64>,
+    rng: ChaCha8Rng,
+}
+
+impl Renderer {
+    /// A renderer for the sensor at `world_from_kinect` in `room`.
+    ///
+    /// # Errors
+    /// [`Error::BadCamera`] for intrinsics other than 512×424; [`Error::BadParameter`] for
+    /// shares outside 0–1 or their sum above 1, or a non-positive edge jump.
+    pub fn new(
+        params: RenderParams,
+        world_from_kinect: &Isometry3<f64>,
+        room: &Room,
+    ) -> Result<Self> {
+        let k = params.intrinsics;
+        if k.width as usize != WIDTH || k.height as usize != HEIGHT {
+            return Err(Error::BadCamera);
+        }
+        for (name, v) in [
+            ("edge_dropout", params.edge_dropout),
+            ("flying_pixels", params.flying_pixels),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(Error::BadParameter {
+                    name,
+                    value: v,
+                    expected: "a share within 0–1",
+                });
+            }
+        }
+        if params.edge_dropout + params.flying_pixels > 1.0 {
+            return Err(Error::BadParameter {
+                name: "edge_dropout + flying_pixels",
+                value: params.edge_dropout + params.flying_pixels,
+                expected: "at most 1",
+            });
+        }
+        if !(params.edge_jump_m > 0.0 && params.edge_jump_m.is_finite()) {
+            return Err(Error::BadParameter {
+                name: "edge_jump_m",
+                value: params.edge_jump_m,
+                expected: "a positive depth step in metres",
+            });
+        }
+        let mut rays = Vec::with_capacity(PIXELS);
+        for v in 0..HEIGHT {
+            for u in 0..WIDTH {
+                rays.push(Vector3::new(
+                    (k.cx - (u as f64 + 0.5)) / k.fx,
+                    (k.cy - (v as f64 + 0.5)) / k.fy,
+                    1.0,
+                ));
+            }
+        }
+        // Room planes in world: n·p = d with n pointing into the room.
+        let planes = [
+            (Vector3::z(), 0.0),
+            (-Vector3::z(), -room.height_m),
+            (Vector3::x(), room.x_range_m.0),
+            (-Vector3::x(), -room.x_range_m.1),
+            (Vector3::y(), room.y_range_m.0),
+            (-Vector3::y(), -room.y_range_m.1),
+        ];
+        let origin = world_from_kinect.translation.vector;
+        let rot = world_from_kinect.rotation;
+        let mut room_z = vec![f64::INFINITY; PIXELS];
+        let mut room_incidence = vec![0.0; PIXELS];
+        for (i, ray) in rays.iter().enumerate() {
+            let dir = rot * ray;
+            for (n, d) in &planes {
+                let den = n.dot(&dir);
+                if den >= -1e-12 {
+                    continue;
+                }
+                let t = (d - n.dot(&origin)) / den;
+                if t > 0.0 && t < room_z[i] {
+                    room_z[i] = t;
+                    room_incidence[i] = (-den / dir.norm()).clamp(-1.0, 1.0).acos();
+                }
+            }
+        }
+        Ok(Self {
+            rng: ChaCha8Rng::seed_from_u64(params.seed),
+            params,
+            kinect_from_world: world_from_kinect.inverse(),
+            rays,
+            room_z,
+            room_incidence,
+        })
+    }
+
+    /// The camera's pose inverse: world → camera space.
+    #[must_use]
+    pub fn kinect_from_world(&self) -> &Isometry3<f64> {
+        &self.kinect_from_world
+    }
+
+    /// Renders the body of the pose `joint` (world positions); `None` renders the empty room.
+    ///
+    /// # Errors
+    /// As [`Body::from_joints`].
+    pub fn render_pose(
+        &mut self,
+        shape: &BodyShape,
+        joint: impl Fn(Joint) -> Option<Point3<f64>>,
+    ) -> Result<Rendered> {
+        let body = Body::from_joints(shape, &joint)?;
+        let joints_in_kinect = Joint::ALL
+            .iter()
+            .filter_map(|j| joint(*j).map(|p| (*j, self.kinect_from_world * p)))
+            .collect();
+        Ok(self.render_bodies(&[body], joints_in_kinect))
+    }
+
+    /// Renders any number of bodies (none: the empty room) and attaches `joints_in_kinect` as
+    /// the truth.
+    pub fn render_bodies(
+        &mut self,
+        bodies: &[Body],
+        joints_in_kinect: Vec<(Joint, Point3<f64>)>,
+    ) -> Rendered {
+        let mut z = self.room_z.clone();
+        let mut incidence = self.room_incidence.clone();
+        let mut labels = vec![0_u8; PIXELS];
+        for e in bodies.iter().flat_map(|b| &b.ellipsoids) {
+            self.cast(e, &mut z, &mut incidence, &mut labels);
+        }
+        let depth = self.sense(&z, &incidence);
+        Rendered {
+            depth,
+            labels,
+            joints_in_kinect,
+        }
+    }
+
+    /// Ray-casts one ellipsoid into the pixels of its projected bounding square.
+    fn cast(&self, e: &Ellipsoid, z: &mut [f64], incidence: &mut [f64], labels: &mut [u8]) {
+        let k = &self.params.intrinsics;
+        let c = self.kinect_from_world * e.centre;
+        let r = e.bounding_radius_m();
+        if c.z - r < 0.05 {
+            return;
+        }
+        // Quadratic form of the ellipsoid in camera space: (p − c)ᵀ A (p − c) = 1.
+        let axes: Matrix3<f64> = self
+            .kinect_from_world
+            .rotation
+            .to_rotation_matrix()
+            .matrix()
+            * e.axes;
+        let inv_sq = Matrix3::from_diagonal(&e.semi_m.map(|s| 1.0 / (s * s)));
+        let a_mat = axes * inv_sq * axes.transpose();
+        let ac = a_mat * c.coords;
+        let c_term = c.coords.dot(&ac) - 1.0;
+        // Bounding square of the sphere's projection (conservative).
+        let near = c.z - r;
+        let half_u = k.fx * r / near + 1.0;
+        let half_v = k.fy * r / near + 1.0;
+        let cu = k.cx - k.fx * c.x / c.z;
+        let cv = k.cy - k.fy * c.y / c.z;
+        let clamp = |x: f64, hi: usize| x.max(0.0).min(hi as f64) as usize;
+        let (u0, u1) = (clamp(cu - half_u, WIDTH), clamp(cu + half_u + 1.0, WIDTH));
+        let (v0, v1) = (clamp(cv - half_v, HEIGHT), clamp(cv + half_v + 1.0, HEIGHT));
+        for v in v0..v1 {
+            for u in u0..u1 {
+                let i = v * WIDTH + u;
+                let d = &self.rays[i];
+                let ad = a_mat * d;
+                let a = d.dot(&ad);
+                let b = -2.0 * ac.dot(d);
+                let disc = b * b - 4.0 * a * c_term;
+                if disc < 0.0 {
+                    continue;
+                }
+                let t = (-b - disc.sqrt()) / (2.0 * a);
+                if t <= 0.0 || t >= z[i] {
+                    continue;
+                }
+                z[i] = t;
+                let normal = a_mat * (d * t - c.coords);
+                incidence[i] = (normal.dot(d).abs() / (normal.norm() * d.norm()))
+                    .clamp(0.0, 1.0)
+                    .acos();
+                labels[i] = e.part.label();
+            }
+        }
+    }
+
+    /// Turns geometric depth into what the sensor reports.
+    fn sense(&mut self, z: &[f64], incidence: &[f64]) -> DepthFrame {
+        let p = &self.params;
+        let (lo, hi) = (p.noise.min_depth_m, p.noise.max_depth_m);
+        let mut frame = DepthFrame::zeros();
+        let out = frame.as_mm_mut();
+        let grazing = trigait_kinect::MAX_INCIDENCE_RAD;
+        for i in 0..PIXELS {
+            let zi = z[i];
+            if !zi.is_finite() || incidence[i] > grazing {
+                continue;
+            }
+            let mut zm = zi;
+            if p.noisy {
+                // Depth along the axis scales with the range; the noise model is for the range.
+                let n: f64 = StandardNormal.sample(&mut self.rng);
+                zm += n * p.noise.tof_sigma_m(zi, incidence[i]);
+                // Discontinuity: the pixel on the near side mixes the two surfaces.
+                let (u, v) = (i % WIDTH, i / WIDTH);
+                let mut far = zi;
+                if u > 0 {
+                    far = far.max(z[i - 1]);
+                }
+                if u + 1 < WIDTH {
+                    far = far.max(z[i + 1]);
+                }
+                if v > 0 {
+                    far = far.max(z[i - WIDTH]);
+                }
+                if v + 1 < HEIGHT {
+                    far = far.max(z[i + WIDTH]);
+                }
+                if far - zi > p.edge_jump_m {
+                    let roll: f64 = self.rng.random();
+                    if roll < p.edge_dropout {
+                        continue;
+                    }
+                    if roll < p.edge_dropout + p.flying_pixels {
+                        let far = if far.is_finite() { far } else { zi + 1.0 };
+                        zm = zi + self.rng.random::<f64>() * (far - zi);
+                    }
+                }
+            }
+            if (lo..=hi).contains(&zm) {
+                out[i] = (zm * 1000.0).round() as u16;
+            }
+        }
+        frame
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,893 @@
+//! A lower-body skeleton from Kinect v2 depth frames, with no SDK and no trained weights.
+//!
+//! The Kinect SDK's body tracker (thesis §2, §6.4) exists only on Windows; on Linux a Kinect v2
+//! gives depth and no skeleton. This crate is a model-based tracker in the spirit of
+//! Ganapathi et al. 2012 ("Real-time human pose tracking from range data", ECCV): segment the
+//! person, then fit an articulated model to the point cloud, frame after frame, starting from
+//! the last fit. Per frame ([`LegTracker::track`]):
+//!
+//! 1. **Floor.** From the rig (the sensor's pose, [`Floor::from_pose`]) or a RANSAC plane fit on
+//!    the lower image rows, held once found ([`segment`]).
+//! 2. **Person.** Floor pixels and pixels above head height are dropped; the rest form connected
+//!    components continuous in depth. Person-like components (standing on the floor, head
+//!    height, body-sized) are counted; the one nearest to the last position is followed.
+//! 3. **Legs.** The model is two chains hip → knee → ankle of straight segments; each point
+//!    below the hip goes to the leg whose predicted axis is nearer, so the legs keep their
+//!    identities when they cross ([`legs`]). Hip height is a share of the measured stature;
+//!    the knee is the breakpoint of a two-line fit to the limb's axis; the ankle sits above the
+//!    sole. During the first frames the tracker measures the stature and the thigh and shank
+//!    lengths; then it holds them and places the knee and ankle at those distances along the
+//!    fitted lines.
+//! 4. **Sides.** Which chain is the left leg follows from the walking direction (the hips'
+//!    motion, or the feet, which point forward): left = up × forward. Decided once, then held.
+//!
+//! Every joint comes with a confidence (the share of its segments' bands that were seen) and
+//! an SDK-like [`TrackingState`]: tracked, inferred (occluded: kept from the model) or not
+//! tracked. The model knows nothing of the shapes a renderer draws: limbs are taken as round
+//! and straight, and the proportions are population anthropometry.
+
+#![warn(missing_docs)]
+
+mod legs;
+pub mod segment;
+
+use nalgebra::{Isometry3, Point3, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+use trigait_depth::{DepthFrame, HEIGHT, PIXELS, WIDTH};
+use trigait_kinect::Intrinsics;
+use trigait_skeleton::{Joint, TrackingState};
+
+use legs::{BAND_M, Band, FitInput, FloorFrame, LegFit, LegPose, fit_leg};
+pub use segment::Component;
+
+/// The depth camera as the tracker sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Camera {
+    /// Pinhole of the depth camera.
+    pub intrinsics: Intrinsics,
+    /// Whether images are mirrored (column grows to the sensor's left, as the Kinect SDK and
+    /// libfreenect2 deliver them) rather than as [`Intrinsics::project`] draws them.
+    pub mirrored: bool,
+    /// Nearest depth used, metres (Kinect v2: 0.5 m).
+    pub min_depth_m: f64,
+    /// Farthest depth used, metres (Kinect v2: 8 m).
+    pub max_depth_m: f64,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self {
+            intrinsics: Intrinsics::default(),
+            mirrored: false,
+            min_depth_m: 0.5,
+            max_depth_m: 8.0,
+        }
+    }
+}
+
+impl Camera {
+    /// Camera-space ray (z = 1) through the centre of pixel (u, v).
+    #[must_use]
+    pub fn ray(&self, u: usize, v: usize) -> (f64, f64) {
+        let k = &self.intrinsics;
+        let x = (k.cx - (u as f64 + 0.5)) / k.fx;
+        let y = (k.cy - (v as f64 + 0.5)) / k.fy;
+        (if self.mirrored { -x } else { x }, y)
+    }
+
+    /// Pixel of a camera-space point, if in front of the camera.
+    #[must_use]
+    pub fn project(&self, p: &Point3<f64>) -> Option<(f64, f64)> {
+        let k = &self.intrinsics;
+        let px = k.project(&Point3::new(
+            if self.mirrored { -p.x } else { p.x },
+            p.y,
+            p.z,
+        ))?;
+        Some((px.x, px.y))
+    }
+
+    /// Whether a point projects inside the image.
+    #[must_use]
+    pub fn in_view(&self, p: &Point3<f64>) -> bool {
+        self.project(p).is_some_and(|(u, v)| {
+            (0.0..WIDTH as f64).contains(&u) && (0.0..HEIGHT as f64).contains(&v)
+        })
+    }
+}
+
+/// The floor in camera space: a point p is `up · p + camera_height_m` above it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Floor {
+    /// Unit normal of the floor pointing up, camera space.
+    pub up_in_kinect: Vector3<f64>,
+    /// Height of the optical centre above the floor, metres.
+    pub camera_height_m: f64,
+}
+
+impl Floor {
+    /// The world floor (z = 0) seen from a sensor at `world_from_kinect`, if it is above it.
+    #[must_use]
+    pub fn from_pose(world_from_kinect: &Isometry3<f64>) -> Option<Self> {
+        let h = world_from_kinect.translation.vector.z;
+        (h > 0.0 && h.is_finite()).then(|| Self {
+            up_in_kinect: world_from_kinect.rotation.inverse() * Vector3::z(),
+            camera_height_m: h,
+        })
+    }
+
+    /// Height of a camera-space point above the floor, metres.
+    #[must_use]
+    pub fn height_m(&self, p: &Point3<f64>) -> f64 {
+        self.up_in_kinect.dot(&p.coords) + self.camera_height_m
+    }
+}
+
+/// Thresholds of the segmentation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SegmentParams {
+    /// Points lower than this are floor, metres (noise at 4 m plus a fitted floor's error).
+    pub floor_tolerance_m: f64,
+    /// Points higher than this are not a person, metres.
+    pub max_height_m: f64,
+    /// Neighbours are connected when their depths differ by less than `jump_m + jump_per_m·z`.
+    pub jump_m: f64,
+    /// See [`SegmentParams::jump_m`].
+    pub jump_per_m: f64,
+    /// Smallest component kept, pixels.
+    pub min_pixels: usize,
+    /// A person's lowest point is below this, metres (feet may be lifted in swing).
+    pub max_foot_height_m: f64,
+    /// A person fully in view reaches above this, metres (a child of 1.3 m; tables, counters
+    /// and treadmill rails stay below).
+    pub min_person_height_m: f64,
+    /// A person fits in a vertical cylinder this wide (radius around the centroid: a stride's
+    /// foot or a swinging hand ≈ 0.5 m), metres.
+    pub max_person_radius_m: f64,
+    /// Visible area of a person, m² (a side view of an adult is ≈ 0.5 m²).
+    pub min_person_area_m2: f64,
+    /// See [`SegmentParams::min_person_area_m2`].
+    pub max_person_area_m2: f64,
+}
+
+impl Default for SegmentParams {
+    fn default() -> Self {
+        Self {
+            floor_tolerance_m: 0.02,
+            max_height_m: 2.3,
+            jump_m: 0.03,
+            jump_per_m: 0.02,
+            min_pixels: 200,
+            max_foot_height_m: 0.4,
+            min_person_height_m: 1.3,
+            max_person_radius_m: 0.65,
+            min_person_area_m2: 0.05,
+            max_person_area_m2: 2.0,
+        }
+    }
+}
+
+/// Configuration of a [`LegTracker`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrackerConfig {
+    /// The camera.
+    pub camera: Camera,
+    /// The floor, when the rig gives it; otherwise fitted.
+    pub floor: Option<Floor>,
+    /// Segmentation thresholds.
+    pub segment: SegmentParams,
+    /// Hip joint centre height over stature: 0.52 (Winter 2009, Fig. 4.1: greater trochanter
+    /// at 0.530 H; the joint centre sits about 1 cm lower).
+    pub hip_height_ratio: f64,
+    /// Ankle joint centre above the sole over stature: 0.039 (Winter 2009, Fig. 4.1).
+    pub ankle_height_ratio: f64,
+    /// Frames over which stature and segment lengths are measured before they are held.
+    pub learning_frames: usize,
+    /// A leg band needs this many points to count as seen.
+    pub min_band_points: usize,
+    /// A joint is tracked when at least this share of its segments' bands was seen.
+    pub tracked_share: f64,
+    /// Frames a leg is kept from the model (inferred) without a fit before it is dropped.
+    pub max_inferred_frames: usize,
+}
+
+impl Default for TrackerConfig {
+    fn default() -> Self {
+        Self {
+            camera: Camera::default(),
+            floor: None,
+            segment: SegmentParams::default(),
+            hip_height_ratio: 0.52,
+            ankle_height_ratio: 0.039,
+            learning_frames: 60,
+            min_band_points: 6,
+            tracked_share: 0.5,
+            max_inferred_frames: 15,
+        }
+    }
+}
+
+/// What the tracker made of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// No valid depth at all (all zeros, or everything out of range).
+    NoData,
+    /// No floor given and none could be fitted.
+    NoFloor,
+    /// The floor is known but no person-like object is in view.
+    Nobody,
+    /// A person was segmented; see the joints for what was found.
+    Tracking,
+}
+
+/// One joint of the output.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TrackedJoint {
+    /// Which joint.
+    pub joint: Joint,
+    /// Camera-space position, metres.
+    pub position_in_kinect: Point3<f64>,
+    /// 0–1: the share of the joint's segments that was seen.
+    pub confidence: f64,
+    /// SDK-like state.
+    pub state: TrackingState,
+}
+
+/// The tracker's output for one frame.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TrackedFrame {
+    /// Outcome.
+    pub status: Status,
+    /// Person-like components in view.
+    pub people: usize,
+    /// Pixels with valid depth.
+    pub valid_pixels: usize,
+    /// Pixels of the followed person.
+    pub person_pixels: usize,
+    /// `person_pixels / valid_pixels` (0 without data).
+    pub person_share: f64,
+    /// The followed person's pixels, row-major (empty unless a person was found).
+    #[serde(skip)]
+    pub person_mask: Vec<bool>,
+    /// Leg joints found (hips, knees, ankles, feet); empty unless tracking.
+    pub joints: Vec<TrackedJoint>,
+    /// The stature in use, metres.
+    pub stature_m: Option<f64>,
+    /// Thigh and shank lengths in use, metres.
+    pub segment_lengths_m: Option<(f64, f64)>,
+    /// Whether stature and lengths are held (learning is over).
+    pub lengths_held: bool,
+    /// The floor in use.
+    pub floor: Option<Floor>,
+}
+
+impl TrackedFrame {
+    fn empty(status: Status, valid: usize, floor: Option<Floor>) -> Self {
+        Self {
+            status,
+            people: 0,
+            valid_pixels: valid,
+            person_pixels: 0,
+            person_share: 0.0,
+            person_mask: Vec::new(),
+            joints: Vec::new(),
+            stature_m: None,
+            segment_lengths_m: None,
+            lengths_held: false,
+            floor,
+        }
+    }
+
+    /// The output for `joint`, if any.
+    #[must_use]
+    pub fn joint(&self, joint: Joint) -> Option<&TrackedJoint> {
+        self.joints.iter().find(|j| j.joint == joint)
+    }
+}
+
+/// Errors of the configuration.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[non_exhaustive]
+pub enum Error {
+    /// A parameter out of range.
+    #[error("leg tracker: {name} = {value} is invalid: expected {expected}")]
+    BadParameter {
+        /// Parameter.
+        name: &'static str,
+        /// Value.
+        value: f64,
+        /// What was expected.
+        expected: &'static str,
+    },
+}
+
+/// Which leg chain a point (horizontal position, height) belongs to, if any.
+type Assign = dyn Fn(&Vector2<f64>, f64) -> Option<usize>;
+
+/// An ankle that moved less than this since the last frame stands (0.45 m/s at 30 Hz), metres.
+const STILL_ANKLE_M: f64 = 0.015;
+
+/// How much better (summed gap between thigh and shank lines at the knees, metres) the
+/// exchanged lower legs must join up to be taken.
+const SWAP_MARGIN_M: f64 = 0.04;
+
+/// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
+const PELVIS_HISTORY: usize = 6;
+/// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
+const MIN_WALK_M: f64 = 0.1;
+
+#[derive(Debug, Clone)]
+struct LegTrack {
+    pose: LegPose,
+    previous: LegPose,
+    /// Frames since the last fit.
+    missed: usize,
+}
+
+/// Follows one person's legs through a sensor's depth frames.
+#[derive(Debug, Clone)]
+pub struct LegTracker {
+    config: TrackerConfig,
+    rays: Vec<(f32, f32)>,
+    floor: Option<Floor>,
+    legs: Option<[LegTrack; 2]>,
+    /// Index of the chain that is the left leg, once decided.
+    left: Option<usize>,
+    last_centroid: Option<Point3<f64>>,
+    pelvis_history: Vec<Point3<f64>>,
+    frames: usize,
+    statures: Vec<f64>,
+    thighs: Vec<f64>,
+    shanks: Vec<f64>,
+    held: Option<(f64, (f64, f64))>,
+}
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+impl LegTracker {
+    /// A tracker with `config`.
+    ///
+    /// # Errors
+    /// [`Error::BadParameter`] for ratios outside (0, 1) or a tracked share outside 0–1.
+    pub fn new(config: TrackerConfig) -> Result<Self, Error> {
+        for (name, v) in [
+            ("hip_height_ratio", config.hip_height_ratio),
+            ("ankle_height_ratio", config.ankle_height_ratio),
+        ] {
+            if !(v > 0.0 && v < 1.0) {
+                return Err(Error::BadParameter {
+                    name,
+                    value: v,
+                    expected: "a share of the stature within (0, 1)",
+                });
+            }
+        }
+        if !(0.0..=1.0).contains(&config.tracked_share) {
+            return Err(Error::BadParameter {
+                name: "tracked_share",
+                value: config.tracked_share,
+                expected: "a share within 0–1",
+            });
+        }
+        let mut rays = Vec::with_capacity(PIXELS);
+        for v in 0..HEIGHT {
+            for u in 0..WIDTH {
+                let (x, y) = config.camera.ray(u, v);
+                rays.push((x as f32, y as f32));
+            }
+        }
+        Ok(Self {
+            floor: config.floor,
+            config,
+            rays,
+            legs: None,
+            left: None,
+            last_centroid: None,
+            pelvis_history: Vec::new(),
+            frames: 0,
+            statures: Vec::new(),
+            thighs: Vec::new(),
+            shanks: Vec::new(),
+            held: None,
+        })
+    }
+
+    /// The configuration.
+    #[must_use]
+    pub fn config(&self) -> &TrackerConfig {
+        &self.config
+    }
+
+    fn lose(&mut self) {
+        // A person found again may be someone else, or the same one turned round.
+        self.left = None;
+        self.legs = None;
+        self.last_centroid = None;
+        self.pelvis_history.clear();
+    }
+
+    /// Tracks one frame.
+    pub fn track(&mut self, frame: &DepthFrame) -> TrackedFrame {
+        let mut cloud = segment::back_project(frame, &self.config.camera, &self.rays);
+        if cloud.valid == 0 {
+            self.lose();
+            return TrackedFrame::empty(Status::NoData, 0, self.floor);
+        }
+        if self.floor.is_none() {
+            self.floor = segment::fit_floor(&cloud);
+        }
+        let Some(floor) = self.floor else {
+            self.lose();
+            return TrackedFrame::empty(Status::NoFloor, cloud.valid, None);
+        };
+        let params = self.config.segment;
+        let (labels, comps) = segment::components(
+            &mut cloud,
+            &floor,
+            &params,
+            self.config.camera.intrinsics.fx,
+        );
+        let people: Vec<&Component> = comps.iter().filter(|c| c.person_like(&params)).collect();
+        let chosen = match self.last_centroid {
+            Some(last) => people
+                .iter()
+                .filter(|c| (c.centroid - last).norm() < 1.0)
+                .min_by(|a, b| {
+                    (a.centroid - last)
+                        .norm()
+                        .total_cmp(&(b.centroid - last).norm())
+                }),
+            // The nearest large one: most pixels.
+            None => people.iter().max_by_key(|c| c.pixels),
+        };
+        let Some(person) = chosen.copied().cloned() else {
+            self.lose();
+            let mut out = TrackedFrame::empty(Status::Nobody, cloud.valid, Some(floor));
+            out.people = people.len();
+            return out;
+        };
+        self.last_centroid = Some(person.centroid);
+        let mask: Vec<bool> = labels.iter().map(|&l| l == person.label).collect();
+        let mut out = TrackedFrame::empty(Status::Tracking, cloud.valid, Some(floor));
+        out.people = people.len();
+        out.person_pixels = person.pixels;
+        out.person_share = person.pixels as f64 / cloud.valid as f64;
+        self.frames += 1;
+        // Stature: the head must be in view to measure it.
+        let top_in_view = !mask[..WIDTH * 2].iter().any(|&m| m);
+        if self.held.is_none() && top_in_view && person.height_range_m.1 > 1.0 {
+            self.statures.push(person.height_range_m.1);
+        }
+        let stature = match self.held {
+            Some((s, _)) => Some(s),
+            None => median(&mut self.statures.clone()),
+        };
+        if let Some(stature) = stature {
+            self.fit_legs(&cloud, &mask, &floor, stature, &mut out);
+        }
+        out.stature_m = stature;
+        out.segment_lengths_m = self.held.map(|h| h.1).or_else(|| {
+            Some((
+                median(&mut self.thighs.clone())?,
+                median(&mut self.shanks.clone())?,
+            ))
+        });
+        if self.held.is_none()
+            && self.frames >= self.config.learning_frames
+            && self.thighs.len() >= 10
+            && self.shanks.len() >= 10
+            && let (Some(s), Some(l)) = (stature, out.segment_lengths_m)
+        {
+            // The breakpoint splits the leg with a bias that depends on the view (a limb seen
+            // from the front shows its narrower side); the leg's total length does not. Thigh
+            // and shank are equally long in adults (Winter 2009: 0.245 H and 0.246 H).
+            let half = 0.5 * (l.0 + l.1);
+            self.held = Some((s, (half, half)));
+        }
+        out.lengths_held = self.held.is_some();
+        out.person_mask = mask;
+        out
+    }
+
+    #[allow(clippy::too_many_lines)]
+    fn fit_legs(
+        &mut self,
+        cloud: &segment::Cloud,
+        mask: &[bool],
+        floor: &Floor,
+        stature: f64,
+        out: &mut TrackedFrame,
+    ) {
+        let ff = FloorFrame::new(floor.up_in_kinect, floor.camera_height_m);
+        let hip_h = self.config.hip_height_ratio * stature;
+        let n_bands = (hip_h / BAND_M).ceil() as usize + 1;
+        // Leg points: horizontal coordinates and heights.
+        let mut pts: Vec<(Vector2<f64>, f64)> = Vec::with_capacity(8000);
+        for (i, &m) in mask.iter().enumerate() {
+            if !m {
+                continue;
+            }
+            let h = f64::from(cloud.height[i]);
+            if h >= hip_h {
+                continue;
+            }
+            let p = cloud.points[i].coords.cast::<f64>();
+            pts.push((Vector2::new(ff.e1.dot(&p), ff.e2.dot(&p)), h));
+        }
+        if pts.len() < 50 {
+            return self.coast(&ff, out);
+        }
+        let predicted: Option<[LegPose; 2]> = self.legs.as_ref().map(|l| {
+            [
+                l[0].pose.extrapolated(&l[0].previous),
+                l[1].pose.extrapolated(&l[1].previous),
+            ]
+        });
+        // Assignment: nearest predicted axis, or a 2-means split of the lower legs to start.
+        let assign: Box<Assign> = match predicted {
+            Some(pred) => Box::new(move |p: &Vector2<f64>, h: f64| {
+                let d0 = (p - pred[0].axis_at(&ff, h)).norm();
+                let d1 = (p - pred[1].axis_at(&ff, h)).norm();
+                let (k, d) = if d0 <= d1 { (0, d0) } else { (1, d1) };
+                (d < 0.35).then_some(k)
+            }),
+            None => {
+                let Some((c0, c1)) = two_means(&pts, 0.1 * hip_h, 0.6 * hip_h) else {
+                    return self.coast(&ff, out);
+                };
+                Box::new(move |p: &Vector2<f64>, _h: f64| {
+                    Some(usize::from((p - c1).norm() < (p - c0).norm()))
+                })
+            }
+        };
+        let mut bands = [
+            vec![Band::default(); n_bands],
+            vec![Band::default(); n_bands],
+        ];
+        for (p, h) in &pts {
+            if let Some(k) = assign(p, *h) {
+                let b = ((h / BAND_M).floor().max(0.0) as usize).min(n_bands - 1);
+                bands[k][b].add(p, *h);
+            }
+        }
+        let min_pts = self.config.min_band_points as f64;
+        let params_floor_tol = self.config.segment.floor_tolerance_m;
+        let ankle_above = self.config.ankle_height_ratio * stature;
+        let input = FitInput {
+            hip_h,
+            ankle_above_sole_m: ankle_above,
+            // Held, or while learning the lengths so far once there are a few.
+            lengths: self.held.map(|h| h.1).or_else(|| {
+                if self.thighs.len() < 5 || self.shanks.len() < 5 {
+                    return None;
+                }
+                let half =
+                    0.5 * (median(&mut self.thighs.clone())? + median(&mut self.shanks.clone())?);
+                Some((half, half))
+            }),
+            thigh_for_shank: if self.thighs.len() >= 3 {
+                median(&mut self.thighs.clone())
+            } else {
+                None
+            },
+            min_band_points: min_pts,
+        };
+        let legs_now = self.legs.clone();
+        let fit_both = |bands: &[Vec<Band>; 2]| {
+            let mut fits: [Option<LegFit>; 2] = [None, None];
+            let mut on_floor_legs = [false; 2];
+            for k in 0..2 {
+                let Some(sole_band) = bands[k].iter().position(|b| b.n >= min_pts) else {
+                    continue;
+                };
+                // The floor cut hides the lowest centimetres: a foot whose lowest band sits
+                // just above the cut stands on the floor ...
+                let lowest = bands[k][sole_band].centre(min_pts).map_or(0.0, |c| c.1);
+                // ... and a foot in stance is still (a swing foot skims the floor toes first).
+                let still = legs_now
+                    .as_ref()
+                    .is_none_or(|l| (l[k].pose.ankle - l[k].previous.ankle).norm() < STILL_ANKLE_M);
+                let on_floor = lowest < params_floor_tol + BAND_M && still;
+                let sole_h = if on_floor { 0.0 } else { lowest - 0.5 * BAND_M };
+                // Foot: the points below the ankle.
+                let (mut sum, mut n) = (Vector3::zeros(), 0.0);
+                for b in bands[k]
+                    .iter()
+                    .take(((sole_h + ankle_above) / BAND_M).ceil() as usize)
+                {
+                    if let Some((c, h, _)) = b.centre(1.0) {
+                        sum += ff.join(&c, h).coords * b.n;
+                        n += b.n;
+                    }
+                }
+                on_floor_legs[k] = on_floor;
+                fits[k] = fit_leg(&ff, &bands[k], sole_h, on_floor, (sum, n), &input);
+            }
+            (fits, on_floor_legs)
+        };
+        let (mut fits, mut on_floor_legs) = fit_both(&bands);
+        // Where the legs pass each other the lower legs may have gone to the wrong chains: a
+        // leg's thigh and shank lines meet at its knee, a thigh and the other leg's shank do
+        // not. Try the lower legs exchanged below the predicted knees and keep what joins up.
+        if let (Some(pred), [Some(a), Some(b)]) = (predicted, &fits) {
+            let knee_h =
+                0.5 * (ff.split(&pred[0].knee.coords).1 + ff.split(&pred[1].knee.coords).1);
+            let split = ((knee_h / BAND_M).floor().max(0.0) as usize).min(n_bands);
+            let mut swapped = bands.clone();
+            let (lo0, lo1) = swapped.split_at_mut(1);
+            lo0[0][..split].swap_with_slice(&mut lo1[0][..split]);
+            let (alt, alt_floor) = fit_both(&swapped);
+            if let [Some(c), Some(d)] = &alt
+                && c.knee_gap_m + d.knee_gap_m + SWAP_MARGIN_M < a.knee_gap_m + b.knee_gap_m
+            {
+                fits = alt;
+                on_floor_legs = alt_floor;
+            }
+        }
+        if self.held.is_none() {
+            for (f, on_floor) in fits.iter().zip(on_floor_legs) {
+                let Some(f) = f else { continue };
+                if let Some(lt) = f.thigh_measured.filter(|l| (0.2..0.7).contains(l)) {
+                    self.thighs.push(lt);
+                }
+                if let Some(ls) = f
+                    .shank_measured
+                    .filter(|l| on_floor && (0.2..0.7).contains(l))
+                {
+                    self.shanks.push(ls);
+                }
+            }
+        }
+        // Update the tracks. An unseen leg moves with the pelvis (the seen hip's step): the
+        // pelvis is rigid, and a leg hidden behind the other is carried along by the body.
+        let tracks = match (self.legs.take(), &fits) {
+            (Some(old), _) => {
+                let carried = |k: usize| -> Vector3<f64> {
+                    fits[1 - k].map_or_else(Vector3::zeros, |f| f.pose.hip - old[1 - k].pose.hip)
+                };
+                let upd = |k: usize, t: &LegTrack| match &fits[k] {
+                    Some(f) => Some(LegTrack {
+                        previous: t.pose,
+                        pose: f.pose,
+                        missed: 0,
+                    }),
+                    None if t.missed < self.config.max_inferred_frames => {
+                        let step = carried(k);
+                        Some(LegTrack {
+                            previous: t.pose,
+                            pose: LegPose {
+                                hip: t.pose.hip + step,
+                                knee: t.pose.knee + step,
+                                ankle: t.pose.ankle + step,
+                            },
+                            missed: t.missed + 1,
+                        })
+                    }
+                    None => None,
+                };
+                match (upd(0, &old[0]), upd(1, &old[1])) {
+                    (Some(a), Some(b)) => Some([a, b]),
+                    _ => None,
+                }
+            }
+            (None, [Some(a), Some(b)]) => Some([a.pose, b.pose].map(|pose| LegTrack {
+                pose,
+                previous: pose,
+                missed: 0,
+            })),
+            (None, _) => None,
+        };
+        let Some(tracks) = tracks else {
+            self.legs = None;
+            return;
+        };
+        let pelvis = nalgebra::center(&tracks[0].pose.hip, &tracks[1].pose.hip);
+        self.pelvis_history.push(pelvis);
+        if self.pelvis_history.len() > PELVIS_HISTORY {
+            self.pelvis_history.remove(0);
+        }
+        self.decide_sides(&ff, &tracks, &fits);
+        // Emit.
+        let Some(left) = self.left else {
+            self.legs = Some(tracks);
+            return;
+        };
+        let share = self.config.tracked_share;
+        for (k, (hip_j, knee_j, ankle_j, foot_j)) in [
+            (
+                Joint::HipLeft,
+                Joint::KneeLeft,
+                Joint::AnkleLeft,
+                Joint::FootLeft,
+            ),
+            (
+                Joint::HipRight,
+                Joint::KneeRight,
+                Joint::AnkleRight,
+                Joint::FootRight,
+            ),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let chain = if k == 0 { left } else { 1 - left };
+            let t = &tracks[chain];
+            let (thigh, shank) = fits[chain].map_or((0.0, 0.0), |f| (f.thigh_seen, f.shank_seen));
+            let mut emit = |joint, p: Point3<f64>, c: f64| {
+                let state = if !self.config.camera.in_view(&p) {
+                    TrackingState::NotTracked
+                } else if c >= share {
+                    TrackingState::Tracked
+                } else {
+                    TrackingState::Inferred
+                };
+                out.joints.push(TrackedJoint {
+                    joint,
+                    position_in_kinect: p,
+                    confidence: c.clamp(0.0, 1.0),
+                    state,
+                });
+            };
+            emit(hip_j, t.pose.hip, thigh);
+            emit(knee_j, t.pose.knee, thigh.min(shank));
+            emit(ankle_j, t.pose.ankle, shank);
+            if let Some(foot) = fits[chain].and_then(|f| f.foot) {
+                emit(foot_j, foot, shank);
+            }
+        }
+        self.legs = Some(tracks);
+    }
+
+    /// No fit this frame: the model coasts (inferred) until it has missed too many frames.
+    fn coast(&mut self, _ff: &FloorFrame, out: &mut TrackedFrame) {
+        let Some(mut legs) = self.legs.take() else {
+            return;
+        };
+        for t in &mut legs {
+            t.missed += 1;
+            t.previous = t.pose;
+        }
+        if legs
+            .iter()
+            .any(|t| t.missed > self.config.max_inferred_frames)
+        {
+            return;
+        }
+        if let Some(left) = self.left {
+            for (k, joints) in [
+                [Joint::HipLeft, Joint::KneeLeft, Joint::AnkleLeft],
+                [Joint::HipRight, Joint::KneeRight, Joint::AnkleRight],
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let t = &legs[if k == 0 { left } else { 1 - left }];
+                for (j, p) in joints
+                    .into_iter()
+                    .zip([t.pose.hip, t.pose.knee, t.pose.ankle])
+                {
+                    out.joints.push(TrackedJoint {
+                        joint: j,
+                        position_in_kinect: p,
+                        confidence: 0.0,
+                        state: TrackingState::Inferred,
+                    });
+                }
+            }
+        }
+        self.legs = Some(legs);
+    }
+
+    /// Which chain is the left leg: left = up × forward, forward from the hips' motion over
+    /// the last frames or, standing still, from the feet (they point forward). Re-decided
+    /// whenever the person clearly walks, so a turn on the spot does not swap the sides.
+    fn decide_sides(
+        &mut self,
+        ff: &FloorFrame,
+        tracks: &[LegTrack; 2],
+        fits: &[Option<LegFit>; 2],
+    ) {
+        let by_motion = self.pelvis_history.len() >= PELVIS_HISTORY
+            && self
+                .pelvis_history
+                .first()
+                .zip(self.pelvis_history.last())
+                .is_some_and(|(a, b)| {
+                    let v = b - a;
+                    (v - ff.up * ff.up.dot(&v)).norm() > MIN_WALK_M
+                });
+        // The feet decide only for someone standing (the motion window full but still) or on
+        // the very first frame (a single recorded image); a person found again waits for the
+        // window, as the feet of someone close to the sensor are often out of view.
+        let standing = self.pelvis_history.len() >= PELVIS_HISTORY;
+        if self.left.is_some() && !by_motion
+            || self.left.is_none() && !by_motion && !standing && self.frames > 1
+        {
+            return;
+        }
+        let forward = if by_motion {
+            let (Some(a), Some(b)) = (self.pelvis_history.first(), self.pelvis_history.last())
+            else {
+                return;
+            };
+            b - a
+        } else {
+            let mut f = Vector3::zeros();
+            for (t, fit) in tracks.iter().zip(fits) {
+                if let Some(foot) = fit.and_then(|f| f.foot) {
+                    f += foot - t.pose.ankle;
+                }
+            }
+            f
+        };
+        let forward = forward - ff.up * ff.up.dot(&forward);
+        if forward.norm() < 0.03 {
+            return;
+        }
+        let lateral = ff.up.cross(&forward.normalize());
+        let d = lateral.dot(&(tracks[0].pose.hip - tracks[1].pose.hip));
+        if d.abs() > 0.03 {
+            self.left = Some(if d > 0.0 { 0 } else { 1 });
+        }
+    }
+}
+
+/// Two-means of the horizontal positions of the points between heights `lo` and `hi`, started
+/// from the extremes along the main axis.
+fn two_means(
+    pts: &[(Vector2<f64>, f64)],
+    lo: f64,
+    hi: f64,
+) -> Option<(Vector2<f64>, Vector2<f64>)> {
+    let sel: Vec<Vector2<f64>> = pts
+        .iter()
+        .filter(|p| p.1 >= lo && p.1 < hi)
+        .map(|p| p.0)
+        .collect();
+    if sel.len() < 20 {
+        return None;
+    }
+    let mean = sel.iter().sum::<Vector2<f64>>() / sel.len() as f64;
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for p in &sel {
+        let d = p - mean;
+        sxx += d.x * d.x;
+        sxy += d.x * d.y;
+        syy += d.y * d.y;
+    }
+    let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    let axis = Vector2::new(angle.cos(), angle.sin());
+    let proj = |p: &Vector2<f64>| axis.dot(&(p - mean));
+    let mut c0 = *sel.iter().min_by(|a, b| proj(a).total_cmp(&proj(b)))?;
+    let mut c1 = *sel.iter().max_by(|a, b| proj(a).total_cmp(&proj(b)))?;
+    for _ in 0..10 {
+        let (mut s0, mut n0, mut s1, mut n1) = (Vector2::zeros(), 0.0, Vector2::zeros(), 0.0);
+        for p in &sel {
+            if (p - c0).norm() <= (p - c1).norm() {
+                s0 += p;
+                n0 += 1.0;
+            } else {
+                s1 += p;
+                n1 += 1.0;
+            }
+        }
+        if n0 == 0.0 || n1 == 0.0 {
+            return None;
+        }
+        c0 = s0 / n0;
+        c1 = s1 / n1;
+    }
+    Some((c0, c1))
+}
+
+#[cfg(test)]
+mod tests;

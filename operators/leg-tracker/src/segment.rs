@@ -1,0 +1,285 @@
+//! Floor and person segmentation of one depth frame.
+//!
+//! Every valid pixel is back-projected to camera space; its height above the floor comes from
+//! the rig's floor or a RANSAC plane fit on the lower image rows. Pixels on the floor (within a
+//! few centimetres) or above any standing person are dropped, the rest are grouped into
+//! connected components whose neighbouring pixels are continuous in depth (a jump larger than
+//! the Kinect's noise plus the surface slope between two pixels separates objects). A component
+//! is person-like when it stands on the floor, reaches head height and is about as wide as a
+//! body; among those the tracker follows the one nearest to where the person was (the largest
+//! at the first frame).
+
+use nalgebra::{Point3, Vector3};
+use trigait_depth::plane::{RansacParams, fit_plane_ransac};
+use trigait_depth::{DepthFrame, HEIGHT, PIXELS, WIDTH};
+
+use crate::{Camera, Floor};
+
+/// Summary of one connected component.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Component {
+    /// Label in the label image.
+    pub label: u32,
+    /// Pixels.
+    pub pixels: usize,
+    /// Metric area of the pixels' footprint, m².
+    pub area_m2: f64,
+    /// Lowest and highest height above the floor, metres.
+    pub height_range_m: (f64, f64),
+    /// Centroid in camera space.
+    pub centroid: Point3<f64>,
+    /// Largest horizontal distance of a point from the centroid, metres.
+    pub radius_m: f64,
+    /// Whether it touches the image border.
+    pub at_border: bool,
+}
+
+/// Points of one frame.
+pub(crate) struct Cloud {
+    /// Camera-space point per pixel (z = 0: no data).
+    pub points: Vec<Point3<f32>>,
+    /// Height above the floor per pixel (NaN: no data or no floor).
+    pub height: Vec<f32>,
+    /// Valid pixels.
+    pub valid: usize,
+}
+
+pub(crate) fn back_project(frame: &DepthFrame, camera: &Camera, rays: &[(f32, f32)]) -> Cloud {
+    let mm = frame.as_mm();
+    let (lo, hi) = (camera.min_depth_m as f32, camera.max_depth_m as f32);
+    let mut points = vec![Point3::new(0.0_f32, 0.0, 0.0); PIXELS];
+    let mut valid = 0;
+    for (i, (&d, p)) in mm.iter().zip(points.iter_mut()).enumerate() {
+        let z = f32::from(d) * 1e-3;
+        if d == 0 || z < lo || z > hi {
+            continue;
+        }
+        let (rx, ry) = rays[i];
+        *p = Point3::new(rx * z, ry * z, z);
+        valid += 1;
+    }
+    Cloud {
+        points,
+        height: vec![f32::NAN; PIXELS],
+        valid,
+    }
+}
+
+/// The floor from the lower half of the image: of the near-horizontal planes found there
+/// (normal within 45° of the camera's up), the lowest with enough support. Tables, steps and
+/// treadmill belts are horizontal too, but the floor is below them all.
+pub(crate) fn fit_floor(cloud: &Cloud) -> Option<Floor> {
+    let mut pts = Vec::with_capacity(12000);
+    for v in (HEIGHT / 2..HEIGHT).step_by(2) {
+        for u in (0..WIDTH).step_by(3) {
+            let p = cloud.points[v * WIDTH + u];
+            if p.z > 0.0 {
+                pts.push(Point3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z)));
+            }
+        }
+    }
+    let min_support = (pts.len() / 50).max(80);
+    let mut best: Option<(Floor, usize)> = None;
+    for round in 0..4_u64 {
+        if pts.len() < min_support {
+            break;
+        }
+        let params = RansacParams {
+            iterations: 300,
+            tolerance_m: 0.02,
+            normal_prior: Some((Vector3::y(), 45.0)),
+            seed: 0x0066_6c6f_6f72 + round,
+        };
+        let Ok(fit) = fit_plane_ransac(&pts, &params) else {
+            break;
+        };
+        if fit.inliers < min_support {
+            break;
+        }
+        // Oriented so the camera (origin) is above it.
+        let plane = fit.plane.oriented(&Vector3::y());
+        let camera_height = -plane.offset;
+        // The best-supported plane, or one parallel to it, lower and well supported.
+        let lower_parallel = best.is_some_and(|(b, support): (Floor, usize)| {
+            camera_height > b.camera_height_m
+                && b.up_in_kinect.angle(&plane.normal) < 10f64.to_radians()
+                && fit.inliers * 10 >= support * 3
+        });
+        if camera_height > 0.1 && (best.is_none() || lower_parallel) {
+            best = Some((
+                Floor {
+                    up_in_kinect: plane.normal,
+                    camera_height_m: camera_height,
+                },
+                fit.inliers,
+            ));
+        }
+        pts.retain(|p| fit.plane.distance(p).abs() > 0.05);
+    }
+    best.map(|b| b.0)
+}
+
+/// Union–find over pixels.
+struct Dsu {
+    parent: Vec<u32>,
+}
+
+impl Dsu {
+    fn find(&mut self, mut i: u32) -> u32 {
+        while self.parent[i as usize] != i {
+            let p = self.parent[i as usize];
+            self.parent[i as usize] = self.parent[p as usize];
+            i = p;
+        }
+        i
+    }
+    fn union(&mut self, a: u32, b: u32) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra != rb {
+            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+            self.parent[hi as usize] = lo;
+        }
+    }
+}
+
+/// Labels connected components of the candidate pixels; returns the label image (u32::MAX for
+/// none) and the components.
+#[allow(clippy::needless_range_loop)] // pixel indices address several parallel images
+pub(crate) fn components(
+    cloud: &mut Cloud,
+    floor: &Floor,
+    params: &crate::SegmentParams,
+    fx: f64,
+) -> (Vec<u32>, Vec<Component>) {
+    let up = floor.up_in_kinect.cast::<f32>();
+    let h0 = floor.camera_height_m as f32;
+    let (floor_tol, ceiling) = (params.floor_tolerance_m as f32, params.max_height_m as f32);
+    let mut candidate = vec![false; PIXELS];
+    for i in 0..PIXELS {
+        let p = cloud.points[i];
+        if p.z <= 0.0 {
+            continue;
+        }
+        let h = up.dot(&p.coords) + h0;
+        cloud.height[i] = h;
+        candidate[i] = h > floor_tol && h < ceiling;
+    }
+    let mut dsu = Dsu {
+        parent: (0..PIXELS as u32).collect(),
+    };
+    let (jump_a, jump_b) = (params.jump_m as f32, params.jump_per_m as f32);
+    let close = |a: f32, b: f32| (a - b).abs() < jump_a + jump_b * a.min(b);
+    for v in 0..HEIGHT {
+        for u in 0..WIDTH {
+            let i = v * WIDTH + u;
+            if !candidate[i] {
+                continue;
+            }
+            let z = cloud.points[i].z;
+            if u + 1 < WIDTH && candidate[i + 1] && close(z, cloud.points[i + 1].z) {
+                dsu.union(i as u32, (i + 1) as u32);
+            }
+            if v + 1 < HEIGHT && candidate[i + WIDTH] && close(z, cloud.points[i + WIDTH].z) {
+                dsu.union(i as u32, (i + WIDTH) as u32);
+            }
+        }
+    }
+    // Accumulate per root.
+    #[derive(Clone)]
+    struct Acc {
+        n: usize,
+        area: f64,
+        hmin: f32,
+        hmax: f32,
+        sum: Vector3<f64>,
+        border: bool,
+    }
+    let mut labels = vec![u32::MAX; PIXELS];
+    let mut root_to_comp = vec![u32::MAX; PIXELS];
+    let mut accs: Vec<(u32, Acc)> = Vec::new();
+    let inv_f2 = 1.0 / (fx * fx);
+    for i in 0..PIXELS {
+        if !candidate[i] {
+            continue;
+        }
+        let r = dsu.find(i as u32);
+        let mut c = root_to_comp[r as usize];
+        if c == u32::MAX {
+            c = accs.len() as u32;
+            root_to_comp[r as usize] = c;
+            accs.push((
+                c,
+                Acc {
+                    n: 0,
+                    area: 0.0,
+                    hmin: f32::INFINITY,
+                    hmax: f32::NEG_INFINITY,
+                    sum: Vector3::zeros(),
+                    border: false,
+                },
+            ));
+        }
+        labels[i] = c;
+        let a = &mut accs[c as usize].1;
+        let p = cloud.points[i];
+        a.n += 1;
+        a.area += f64::from(p.z * p.z) * inv_f2;
+        a.hmin = a.hmin.min(cloud.height[i]);
+        a.hmax = a.hmax.max(cloud.height[i]);
+        a.sum += p.coords.cast::<f64>();
+        let (u, v) = (i % WIDTH, i / WIDTH);
+        a.border |= u == 0 || v == 0 || u + 1 == WIDTH || v + 1 == HEIGHT;
+    }
+    let min_pixels = params.min_pixels;
+    let mut comps: Vec<Component> = accs
+        .into_iter()
+        .filter(|(_, a)| a.n >= min_pixels)
+        .map(|(label, a)| Component {
+            label,
+            pixels: a.n,
+            area_m2: a.area,
+            height_range_m: (f64::from(a.hmin), f64::from(a.hmax)),
+            centroid: Point3::from(a.sum / a.n as f64),
+            radius_m: 0.0,
+            at_border: a.border,
+        })
+        .collect();
+    // Horizontal radius of each kept component.
+    if !comps.is_empty() {
+        let mut index = vec![usize::MAX; root_to_comp.len().min(PIXELS)];
+        for (k, c) in comps.iter().enumerate() {
+            index[c.label as usize] = k;
+        }
+        let upd = floor.up_in_kinect;
+        let mut radius = vec![0.0_f64; comps.len()];
+        for i in 0..PIXELS {
+            let l = labels[i];
+            if l == u32::MAX {
+                continue;
+            }
+            let k = index[l as usize];
+            if k == usize::MAX {
+                continue;
+            }
+            let d = cloud.points[i].coords.cast::<f64>() - comps[k].centroid.coords;
+            let horizontal = d - upd * upd.dot(&d);
+            radius[k] = radius[k].max(horizontal.norm());
+        }
+        for (c, r) in comps.iter_mut().zip(radius) {
+            c.radius_m = r;
+        }
+    }
+    (labels, comps)
+}
+
+impl Component {
+    /// Whether it looks like a standing or walking person (also partly out of view).
+    #[must_use]
+    pub fn person_like(&self, params: &crate::SegmentParams) -> bool {
+        let (lo, hi) = self.height_range_m;
+        lo < params.max_foot_height_m
+            && (hi > params.min_person_height_m || self.at_border && hi > 0.5)
+            && self.radius_m < params.max_person_radius_m
+            && (params.min_person_area_m2..params.max_person_area_m2).contains(&self.area_m2)
+    }
+}
