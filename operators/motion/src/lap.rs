@@ -52,12 +52,91 @@ pub fn there_and_back(clip: &MotionClip) -> Result<MotionClip> {
     )?)
 }
 
+/// A walk up and down the walkway on two lanes, `laps` times: `clip` (placed on the walkway,
+/// walking +X) shifted `lane_offset_m / 2` to the right, then a turn of `turn_secs`, then the
+/// same clip turned 180° about the vertical through the walkway centre and shifted to the other
+/// side, walking back along −X, then a turn, and so on. A person pacing a lab walkway turns at
+/// each end and rarely comes back on exactly the same line; walking back a metre to the side is
+/// what a rig calibration from the walk asks for (the stance feet then span the floor across the
+/// walk, not only along it). The turns themselves are not modelled: the clip has no samples
+/// while the walker turns (a gap, which no reader or sensor bridges), so nothing is reported
+/// then. With `lane_offset_m = 0` the walk goes back on the same line.
+///
+/// # Errors
+/// [`Error::Clip`] for a clip without frames or `laps = 0`.
+pub fn walkway_laps(
+    clip: &MotionClip,
+    lane_offset_m: f64,
+    turn_secs: f64,
+    laps: usize,
+) -> Result<MotionClip> {
+    let count = clip.frame_count();
+    if count == 0 || laps == 0 {
+        return Err(Error::Clip(trigait_skeleton::ClipError::Empty));
+    }
+    let out = Translation3::new(0.0, -lane_offset_m / 2.0, 0.0);
+    let back: Isometry3<f64> = Translation3::new(0.0, lane_offset_m / 2.0, 0.0)
+        * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::PI);
+    let turn_frames = (turn_secs.max(0.0) * clip.rate_hz()).round() as usize;
+    let joints = clip.joints().to_vec();
+    let mut frames = Vec::with_capacity(laps * 2 * (count + turn_frames));
+    for pass in 0..2 * laps {
+        if pass > 0 {
+            frames.extend((0..turn_frames).map(|_| vec![None; joints.len()]));
+        }
+        let iso: Isometry3<f64> = if pass % 2 == 0 {
+            Isometry3::from_parts(out, UnitQuaternion::identity())
+        } else {
+            back
+        };
+        frames.extend((0..count).map(|f| {
+            joints
+                .iter()
+                .map(|j| clip.position(f, *j).map(|p| iso * p))
+                .collect()
+        }));
+    }
+    Ok(MotionClip::new(
+        format!(
+            "{} ({laps} laps, lanes {lane_offset_m} m apart)",
+            clip.name()
+        ),
+        clip.rate_hz(),
+        joints,
+        frames,
+    )?)
+}
+
 #[cfg(test)]
 mod tests {
     use approx::assert_relative_eq;
 
     use super::*;
     use crate::{WalkerParams, walker};
+
+    /// Laps alternate direction on two lanes with a gap for each turn.
+    #[test]
+    fn laps_on_two_lanes() {
+        let out = walker(&WalkerParams::default(), 2.5, 100.0)
+            .unwrap()
+            .placed_on_walkway();
+        let laps = walkway_laps(&out, 1.0, 1.0, 2).unwrap();
+        let n = out.frame_count();
+        assert_eq!(laps.frame_count(), 4 * n + 3 * 100);
+        let hip = |f: usize| laps.position(f, Joint::HipLeft);
+        assert!(
+            hip(n - 1).unwrap().x > hip(0).unwrap().x + 2.0,
+            "outbound along +X"
+        );
+        assert!(hip(n + 50).is_none(), "no samples while turning");
+        let back = n + 100;
+        assert!(
+            hip(back + n - 1).unwrap().x < hip(back).unwrap().x - 2.0,
+            "back along −X"
+        );
+        let lane = |f: usize| laps.position(f, Joint::SpineBase).unwrap().y;
+        assert!((lane(n / 2) + 0.5).abs() < 0.1 && (lane(back + n / 2) - 0.5).abs() < 0.1);
+    }
 
     /// The lap is twice as long, walks +X then −X, and ends near where it began.
     #[test]

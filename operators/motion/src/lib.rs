@@ -55,7 +55,7 @@ pub use c3d::{read_c3d, write_c3d};
 pub use centres::{JointCentreParams, joint_centres, joint_centres_with};
 pub use csv::{read_csv, write_csv};
 pub use error::{Error, Result};
-pub use lap::there_and_back;
+pub use lap::{there_and_back, walkway_laps};
 pub use markers::{MarkerGaps, MarkerSet};
 pub use sdk::{SdkFrame, parse_sdk_skeletons, read_sdk_skeletons};
 pub use trc::{read_trc, write_trc};
