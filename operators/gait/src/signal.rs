@@ -126,11 +126,12 @@ impl Landmarks {
         self.pelvis.is_empty()
     }
 
-    /// Whether the pelvis and both heels have a sample at `frame` (the toes are optional).
+    /// Whether the pelvis and a heel have a sample at `frame` (toes are optional, and one heel
+    /// is enough: that foot's events can still be found while the other is out of view).
     #[must_use]
     pub fn complete(&self, frame: usize) -> bool {
         let ok = |v: &Vec<Option<Point3<f64>>>| v.get(frame).copied().flatten().is_some();
-        ok(&self.pelvis) && self.heel.iter().all(ok)
+        ok(&self.pelvis) && self.heel.iter().any(ok)
     }
 
     pub(crate) fn time(&self, frame: f64) -> f64 {
