@@ -52,12 +52,14 @@ mod walker;
 use std::path::Path;
 
 pub use c3d::{read_c3d, write_c3d};
-pub use centres::{JointCentreParams, joint_centres, joint_centres_with};
+pub use centres::{
+    FootMarkers, JointCentreParams, foot_markers, joint_centres, joint_centres_with,
+};
 pub use csv::{read_csv, write_csv};
 pub use error::{Error, Result};
 pub use lap::{there_and_back, walkway_laps};
-pub use markers::{MarkerGaps, MarkerSet};
-pub use sdk::{SdkFrame, parse_sdk_skeletons, read_sdk_skeletons};
+pub use markers::{Landmark, MARKER_NAMES, MarkerGaps, MarkerSet};
+pub use sdk::{SdkClip, SdkFrame, parse_sdk_skeletons, read_sdk_skeletons, sdk_clip};
 pub use trc::{read_trc, write_trc};
 pub use trigait_skeleton::{Joint, MotionClip};
 pub use walker::{WalkerParams, walker};
