@@ -59,3 +59,32 @@ pub fn init_node(
     .expect("dora's init_testing");
     (node, events, rx)
 }
+
+/// Writes `array` as a one-column Arrow IPC file `<dir>/<name>.arrow` (column `msg`), the form
+/// a testing event takes real message data in: `{"type": "Input", "id": …, "path": <file>,
+/// "column": "msg"}`.
+///
+/// # Panics
+/// If the file cannot be written.
+#[must_use]
+pub fn arrow_file(
+    dir: &std::path::Path,
+    name: &str,
+    array: dora_node_api::arrow_v59::array::ArrayRef,
+) -> std::path::PathBuf {
+    use dora_node_api::arrow_v59::array::RecordBatch;
+    use dora_node_api::arrow_v59::datatypes::{Field, Schema};
+    use dora_node_api::arrow_v59::ipc::writer::FileWriter;
+    let path = dir.join(format!("{name}.arrow"));
+    let schema = std::sync::Arc::new(Schema::new(vec![Field::new(
+        "msg",
+        array.data_type().clone(),
+        false,
+    )]));
+    let batch = RecordBatch::try_new(schema.clone(), vec![array]).expect("one column batch");
+    let file = std::fs::File::create(&path).expect("creating the arrow file");
+    let mut writer = FileWriter::try_new(file, &schema).expect("an arrow file writer");
+    writer.write(&batch).expect("writing the batch");
+    writer.finish().expect("finishing the arrow file");
+    path
+}

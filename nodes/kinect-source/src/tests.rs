@@ -3,14 +3,9 @@
 //! ground truth without holes; replay reads both SDK formats; the event loop answers only the
 //! NTP requests addressed to it and skips malformed input.
 
-use std::sync::Arc;
-
-use dora_node_api::arrow_v59::array::{ArrayRef, RecordBatch};
-use dora_node_api::arrow_v59::datatypes::{Field, Schema};
-use dora_node_api::arrow_v59::ipc::writer::FileWriter;
 use dora_node_api::integration_testing::{TestingOptions, drain_outputs};
 use dora_node_api::serde_json;
-use trigait_node_testing::{chain, init_node, lookup};
+use trigait_node_testing::{arrow_file, chain, init_node, lookup};
 use trigait_schema::{Message, NtpExchange};
 
 use crate::backend::{Source, sensor_clock};
@@ -161,20 +156,6 @@ fn replay_both_formats() {
         }
         assert_eq!(seqs.len(), frames as usize + 2, "looped past the end");
     }
-}
-
-fn arrow_file(dir: &std::path::Path, name: &str, array: ArrayRef) -> std::path::PathBuf {
-    let path = dir.join(format!("{name}.arrow"));
-    let schema = Arc::new(Schema::new(vec![Field::new(
-        "msg",
-        array.data_type().clone(),
-        false,
-    )]));
-    let batch = RecordBatch::try_new(schema.clone(), vec![array]).unwrap();
-    let mut writer = FileWriter::try_new(std::fs::File::create(&path).unwrap(), &schema).unwrap();
-    writer.write(&batch).unwrap();
-    writer.finish().unwrap();
-    path
 }
 
 /// The event loop: frames go out at 30 Hz while it waits, the NTP request for this sensor is

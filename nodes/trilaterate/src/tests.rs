@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use dora_node_api::integration_testing::{TestingOptions, drain_outputs};
 use dora_node_api::serde_json;
 use nalgebra::Point3;
-use trigait_node_testing::{chain, init_node, lookup};
+use trigait_node_testing::{arrow_file, chain, init_node, lookup};
 use trigait_rig::Rig;
 use trigait_skeleton::{Joint, JointSample, TrackingState};
 use trigait_sync::{AlignedSet, Policy, SensorView};
@@ -291,4 +291,56 @@ fn node_and_eval_fuse_identically() {
             );
         }
     }
+}
+
+/// The loop's happy path: an aligned set in on `aligned_set` comes out as one `fused_pose`
+/// carrying the set's metadata, its joints fused.
+#[test]
+fn aligned_set_in_fused_pose_out() {
+    use trigait_schema::Message;
+    let rig = Rig::from_spec("thesis").unwrap();
+    let knee = Point3::new(0.3, 0.1, 0.5);
+    let sensors: BTreeMap<String, SensorView> = rig
+        .sensors
+        .iter()
+        .map(|s| {
+            let sample = JointSample {
+                joint: Joint::KneeLeft,
+                position_in_kinect: s.world_from_kinect.inverse_transform_point(&knee),
+                state: TrackingState::Tracked,
+            };
+            (s.id.clone(), view(vec![sample]))
+        })
+        .collect();
+    let set = AlignedSet {
+        seq: 0,
+        stamp_nanos: 5,
+        policy: Policy::Interpolate,
+        sensors,
+        missing: vec!["k4".into()],
+        time_uncertainty_nanos: 0,
+    };
+    let dir = std::env::temp_dir().join(format!("trigait-trilaterate-loop-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = arrow_file(&dir, "set", set.encode().unwrap());
+    let (node, events, mut rx) = init_node(
+        serde_json::json!({
+            "id": "trilaterate",
+            "events": [
+                {"time_offset_secs": 0.0, "type": "Input", "id": "aligned_set", "path": file, "column": "msg"},
+                {"time_offset_secs": 0.01, "type": "Stop"}
+            ]
+        }),
+        TestingOptions::default(),
+    );
+    let counters = crate::run(Config::from_lookup(lookup(&[])).unwrap(), node, events).unwrap();
+    assert_eq!((counters.poses_sent, counters.joints_fused), (1, 1));
+    assert_eq!(counters.malformed, 0);
+    let outputs = drain_outputs(&mut rx);
+    let poses: Vec<_> = outputs
+        .iter()
+        .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some("fused_pose"))
+        .collect();
+    assert_eq!(poses.len(), 1, "{outputs:?}");
+    std::fs::remove_dir_all(&dir).ok();
 }
