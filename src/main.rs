@@ -14,6 +14,7 @@ mod depth_metrics;
 mod eval;
 mod export;
 mod gait;
+mod report;
 
 /// Markerless 3-D gait tracking from several Kinect v2 depth sensors.
 #[derive(Debug, Parser)]
@@ -36,6 +37,8 @@ enum Command {
     Gait(gait::Args),
     /// Export joint trajectories as TRC (OpenSim), C3D or CSV.
     Export(export::Args),
+    /// A self-contained HTML gait report: parameters, trajectories with events, footfall, data quality.
+    Report(report::Args),
 }
 
 fn run(args: Args) -> eyre::Result<()> {
@@ -45,6 +48,7 @@ fn run(args: Args) -> eyre::Result<()> {
         Command::DepthMetrics(args) => depth_metrics::run(args),
         Command::Gait(args) => gait::run(args),
         Command::Export(args) => export::run(args),
+        Command::Report(args) => report::run(&args),
     }
 }
 
