@@ -11,6 +11,7 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod depth_metrics;
+mod devices;
 mod eval;
 mod export;
 mod gait;
@@ -36,6 +37,8 @@ enum Command {
     Gait(gait::Args),
     /// Export joint trajectories as TRC (OpenSim), C3D or CSV.
     Export(export::Args),
+    /// List the connected Kinect v2 sensors (serial, firmware, depth pipelines) through libfreenect2.
+    Devices(devices::Args),
 }
 
 fn run(args: Args) -> eyre::Result<()> {
@@ -45,6 +48,7 @@ fn run(args: Args) -> eyre::Result<()> {
         Command::DepthMetrics(args) => depth_metrics::run(args),
         Command::Gait(args) => gait::run(args),
         Command::Export(args) => export::run(args),
+        Command::Devices(args) => devices::run(&args),
     }
 }
 
