@@ -11,6 +11,7 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod depth_metrics;
+mod devices;
 mod eval;
 mod export;
 mod gait;
@@ -39,6 +40,8 @@ enum Command {
     Export(export::Args),
     /// A self-contained HTML gait report: parameters, trajectories with events, footfall, data quality.
     Report(report::Args),
+    /// List the connected Kinect v2 sensors (serial, firmware, depth pipelines) through libfreenect2.
+    Devices(devices::Args),
 }
 
 fn run(args: Args) -> eyre::Result<()> {
@@ -49,6 +52,7 @@ fn run(args: Args) -> eyre::Result<()> {
         Command::Gait(args) => gait::run(args),
         Command::Export(args) => export::run(args),
         Command::Report(args) => report::run(&args),
+        Command::Devices(args) => devices::run(&args),
     }
 }
 

@@ -29,10 +29,6 @@ fn main() {
             build.include(dir);
         }
         build.compile("trigait_freenect2_shim");
-        for dir in &lib.link_paths {
-            // The library is usually installed to a private prefix: let binaries find it.
-            println!("cargo:rustc-link-arg=-Wl,-rpath,{}", dir.display());
-        }
     }
     #[cfg(all(feature = "fake", not(feature = "freenect2")))]
     {

@@ -88,7 +88,7 @@ impl Source {
             Backend::Freenect2 => {
                 if cfg!(feature = "freenect2") {
                     bail!(
-                        "kinect-source: {}=freenect2: the libfreenect2 capture backend is not implemented yet in this build",
+                        "kinect-source: {}=freenect2 runs its own event loop (freenect2::run), not as a Source",
                         config::BACKEND
                     )
                 }

@@ -7,6 +7,7 @@
 mod backend;
 mod config;
 mod depth;
+mod freenect2;
 #[cfg(test)]
 mod tests;
 
@@ -24,6 +25,10 @@ use crate::config::Config;
 fn main() -> eyre::Result<()> {
     let config = Config::from_env()?;
     trigait_node_log::init(&format!("kinect-source {}", config.sensor_id));
+    if config.backend == config::Backend::Freenect2 {
+        // A real Kinect runs its own loop: frames come when the device sends them.
+        return freenect2::main(config).map(|_| ());
+    }
     let source = Source::new(&config, now_nanos())?;
     let (node, events) =
         DoraNode::init_from_env().context("kinect-source: connecting to the dora daemon")?;
