@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod calibrate;
 mod depth_metrics;
 mod eval;
 mod export;
@@ -36,6 +37,8 @@ enum Command {
     Gait(gait::Args),
     /// Export joint trajectories as TRC (OpenSim), C3D or CSV.
     Export(export::Args),
+    /// Calibrate the rig from a walk: every sensor's pose, its uncertainty, and why when undetermined.
+    Calibrate(calibrate::Args),
 }
 
 fn run(args: Args) -> eyre::Result<()> {
@@ -45,6 +48,7 @@ fn run(args: Args) -> eyre::Result<()> {
         Command::DepthMetrics(args) => depth_metrics::run(args),
         Command::Gait(args) => gait::run(args),
         Command::Export(args) => export::run(args),
+        Command::Calibrate(args) => calibrate::run(&args),
     }
 }
 
