@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod calibrate;
 mod depth_metrics;
 mod devices;
 mod eval;
@@ -42,6 +43,8 @@ enum Command {
     Report(report::Args),
     /// List the connected Kinect v2 sensors (serial, firmware, depth pipelines) through libfreenect2.
     Devices(devices::Args),
+    /// Calibrate the rig from a walk: every sensor's pose, its uncertainty, and why when undetermined.
+    Calibrate(calibrate::Args),
 }
 
 fn run(args: Args) -> eyre::Result<()> {
@@ -53,6 +56,7 @@ fn run(args: Args) -> eyre::Result<()> {
         Command::Export(args) => export::run(args),
         Command::Report(args) => report::run(&args),
         Command::Devices(args) => devices::run(&args),
+        Command::Calibrate(args) => calibrate::run(&args),
     }
 }
 
