@@ -52,6 +52,11 @@ mod walker;
 use std::path::Path;
 
 pub use c3d::{read_c3d, write_c3d};
+
+/// Largest motion file (C3D, TRC, CSV, SDK skeleton text) the readers accept: 512 MiB, an hour
+/// of 300-marker capture at 100 Hz. What a reader builds from a file is bounded by a small
+/// multiple of its size, so this bounds its memory too.
+pub const MAX_MOTION_FILE_BYTES: u64 = 512 << 20;
 pub use centres::{JointCentreParams, joint_centres, joint_centres_with};
 pub use csv::{read_csv, write_csv};
 pub use error::{Error, Result};
