@@ -18,7 +18,10 @@ fn open_png(
         path: path.to_owned(),
         source,
     })?;
-    let mut decoder = png::Decoder::new(BufReader::new(file));
+    // A 512×424 frame decodes to at most 1.7 MB (RGBA, 16 bits); 8 MiB also covers the
+    // decoder's text chunks, so a PNG that declares more fails before it allocates.
+    let mut decoder =
+        png::Decoder::new_with_limits(BufReader::new(file), png::Limits { bytes: 8 << 20 });
     decoder.set_transformations(transformations);
     decoder.read_info().map_err(|source| Error::PngDecode {
         path: path.to_owned(),

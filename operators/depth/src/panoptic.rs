@@ -71,10 +71,12 @@ fn numbers(v: &Value) -> Option<Vec<f64>> {
 /// # Errors
 /// Unreadable file, invalid JSON, or a missing/malformed key (named in the error).
 pub fn read_panoptic_calibration(path: &Path) -> Result<Vec<PanopticSensor>> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_owned(),
-        source,
-    })?;
+    // Ten sensors take 60 kB; serde_json limits the nesting (128) itself.
+    let text = trigait_input_limits::read_bounded_text(path, 16 << 20, "calibration file")
+        .map_err(|source| Error::Io {
+            path: path.to_owned(),
+            source,
+        })?;
     let json: Value = serde_json::from_str(&text).map_err(|source| Error::Json {
         path: path.to_owned(),
         source,

@@ -4,9 +4,12 @@
 //! * it reads the residual byte of float-format files as signed, so almost every residual comes out
 //!   negative and cannot mark gaps: a gap is a NaN coordinate or exactly (0, 0, 0), the value
 //!   Vicon and c3dio write for an invalid point;
-//! * it indexes and unwraps freely inside, so a garbage file could panic in it. We check the C3D
-//!   signature first and contain any panic left as [`Error::C3d`], so bad input never takes the
-//!   caller down.
+//! * it trusts the file: it allocates the point grid the header declares before looking at the
+//!   data (a header claiming 32767 points × 32767 frames asks for 25 GB), and it indexes and
+//!   unwraps freely inside. [`check_layout`] therefore walks the header and the parameter
+//!   section first, with every size checked against the file's length, and refuses what c3dio
+//!   could not read safely; a panic left over is still contained as [`Error::C3d`], so bad input
+//!   never takes the caller down.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
@@ -16,7 +19,7 @@ use nalgebra::{Matrix3, Point3, Vector3};
 use trigait_skeleton::MotionClip;
 
 use crate::trc::metres_per_unit;
-use crate::{Error, MarkerSet, Result};
+use crate::{Error, MAX_MOTION_FILE_BYTES, MarkerSet, Result};
 
 fn c3d_error(path: &Path, reason: impl Into<String>) -> Error {
     Error::C3d {
@@ -63,21 +66,23 @@ fn world_from_up_axis(up: [char; 2]) -> Option<Matrix3<f64>> {
 /// rejects it or its `Y_SCREEN` is not an axis, [`Error::UnknownUnits`] for a `POINT:UNITS` other than mm, cm or m.
 pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    // Header word 1: parameter block number (≥ 2) and the key byte 0x50.
-    if bytes.len() < 1024 || bytes[1] != 0x50 || bytes[0] < 2 {
-        return Err(c3d_error(
-            path,
-            "missing the C3D signature (0x50 in byte 2)",
-        ));
-    }
+    let mut bytes = trigait_input_limits::read_bounded(path, MAX_MOTION_FILE_BYTES, "motion file")
+        .map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    check_layout(&mut bytes).map_err(|reason| c3d_error(path, reason))?;
     let c3d = catch_unwind(AssertUnwindSafe(|| {
         C3d::from_bytes(&bytes).map_err(|e| format!("{e:?}"))
     }))
-    .map_err(|_| c3d_error(path, "c3dio panicked on malformed content"))?
+    .map_err(|panic| {
+        let what = panic
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_owned())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        c3d_error(path, format!("c3dio failed on malformed content ({what})"))
+    })?
     .map_err(|reason| c3d_error(path, reason))?;
     let points = &c3d.points;
     let units: String = points.units.iter().collect::<String>().trim().to_string();
@@ -143,6 +148,247 @@ pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
         .map(|n| n.to_string_lossy().to_string())
         .unwrap_or_default();
     MarkerSet::new(name, rate_hz, labels, frames)
+}
+
+/// One parameter record of a C3D parameter section, as c3dio will see it.
+struct RawParameter<'a> {
+    group_id: i8,
+    name: String,
+    /// Bytes per element: 1 (char, byte), 2 (integer) or 4 (float).
+    element_bytes: usize,
+    is_float: bool,
+    /// Offset of the data in the parameter section (so it can be patched) and its bytes.
+    data_at: usize,
+    data: &'a [u8],
+}
+
+/// The groups (id, name) and parameters of a parameter section.
+type Walked<'a> = (Vec<(i8, String)>, Vec<RawParameter<'a>>);
+
+/// Reads a 16-bit word the way the file's processor stores it (DEC and Intel little-endian,
+/// SGI/MIPS big-endian).
+fn word(bytes: &[u8], at: usize, big_endian: bool) -> Option<u16> {
+    let b: [u8; 2] = bytes.get(at..at + 2)?.try_into().ok()?;
+    Some(if big_endian {
+        u16::from_be_bytes(b)
+    } else {
+        u16::from_le_bytes(b)
+    })
+}
+
+/// Groups (id → name) and parameters of the parameter section `section`, walked with the same
+/// index arithmetic as c3dio, every record checked to lie inside the section.
+fn walk_parameters(section: &[u8], big_endian: bool) -> Result<Walked<'_>, String> {
+    let mut groups = Vec::new();
+    let mut parameters = Vec::new();
+    let cut = |what: &str, at: usize| {
+        format!(
+            "parameter section cut inside a record ({what} at byte {at} of {})",
+            section.len()
+        )
+    };
+    let mut index = 4;
+    while index + 1 < section.len() {
+        let id = section[index + 1] as i8;
+        if id == 0 {
+            break;
+        }
+        let name_len = section[index] as i8;
+        if name_len == i8::MIN || id == i8::MIN {
+            return Err(format!(
+                "parameter record at byte {index} has an invalid name length or group id"
+            ));
+        }
+        let name_at = index + 2;
+        let name_end = name_at + usize::from(name_len.unsigned_abs());
+        let name = section
+            .get(name_at..name_end)
+            .ok_or_else(|| cut("name", name_at))?;
+        let name: String = name.iter().map(|&b| b as char).collect();
+        let next =
+            usize::from(word(section, name_end, big_endian).ok_or_else(|| cut("link", name_end))?)
+                + name_end;
+        let mut at = name_end + 2;
+        if id < 0 {
+            groups.push((-id, name));
+        } else {
+            let kind = *section.get(at).ok_or_else(|| cut("type", at))? as i8;
+            let element_bytes = match kind {
+                -1 | 1 => 1,
+                2 => 2,
+                4 => 4,
+                other => return Err(format!("parameter {name} has data type {other}")),
+            };
+            let dims = *section
+                .get(at + 1)
+                .ok_or_else(|| cut("dimensions", at + 1))?;
+            at += 2;
+            let dims_bytes = section
+                .get(at..at + usize::from(dims))
+                .ok_or_else(|| cut("dimensions", at))?;
+            at += usize::from(dims);
+            let elements: usize = dims_bytes
+                .iter()
+                .filter(|&&d| d != 0 && (kind == -1 || d != 1))
+                .map(|&d| usize::from(d))
+                .product();
+            let size = elements * element_bytes;
+            let data = section.get(at..at + size).ok_or_else(|| cut("data", at))?;
+            parameters.push(RawParameter {
+                group_id: id,
+                name: name.to_ascii_uppercase(),
+                element_bytes,
+                is_float: kind == 4,
+                data_at: at,
+                data,
+            });
+            at += size;
+        }
+        let description = usize::from(*section.get(at).ok_or_else(|| cut("description", at))?);
+        section
+            .get(at + 1..at + 1 + description)
+            .ok_or_else(|| cut("description", at + 1))?;
+        index = next;
+    }
+    Ok((groups, parameters))
+}
+
+/// The first element of a numeric parameter as c3dio reads it (integers as `i16`, floats
+/// truncated), or `None` for a char/byte parameter.
+fn first_number(p: &RawParameter<'_>, big_endian: bool) -> Option<f64> {
+    match (p.element_bytes, p.is_float) {
+        (2, _) => word(p.data, 0, big_endian).map(|w| f64::from(w as i16)),
+        (4, true) => {
+            let b: [u8; 4] = p.data.get(..4)?.try_into().ok()?;
+            Some(f64::from(if big_endian {
+                f32::from_be_bytes(b)
+            } else {
+                f32::from_le_bytes(b)
+            }))
+        }
+        _ => None,
+    }
+}
+
+/// Most points per frame c3dio can read: it counts a frame's point bytes in 16 bits.
+const MAX_POINTS: usize = 4095;
+
+/// Most events c3dio can read: it takes each event's time from the 512-byte header.
+const MAX_EVENTS: usize = 52;
+
+/// Checks, before c3dio sees them, that the header and parameter section of `bytes` describe
+/// a file c3dio can read within the bytes it has: signature, processor, block pointers, every
+/// parameter record inside its section, the points and frames the header declares inside the
+/// data section, and analog counts consistent with the header. An `EVENT:USED` that c3dio
+/// would index past its header is set to 0 in `bytes` (events are not read here).
+///
+/// # Errors
+/// What does not hold, for [`Error::C3d`].
+fn check_layout(bytes: &mut [u8]) -> Result<(), String> {
+    // Header word 1: parameter block number (≥ 2) and the key byte 0x50.
+    if bytes.len() < 1024 || bytes[1] != 0x50 || bytes[0] < 2 {
+        return Err("missing the C3D signature (0x50 in byte 2)".to_owned());
+    }
+    let parameter_block = usize::from(bytes[0]);
+    let blocks = bytes.len() / 512;
+    if parameter_block > blocks {
+        return Err(format!(
+            "the parameter section starts in block {parameter_block}, the file has {blocks}"
+        ));
+    }
+    let big_endian = match bytes[(parameter_block - 1) * 512 + 3] {
+        0x54 | 0x55 => false,
+        0x56 => true,
+        other => return Err(format!("unknown processor type 0x{other:02x}")),
+    };
+    let header = |w: usize| word(bytes, 2 * (w - 1), big_endian).unwrap_or(0);
+    let (points, analog_per_frame) = (usize::from(header(2)), usize::from(header(3)));
+    let (first_frame, last_frame) = (usize::from(header(4)), usize::from(header(5)));
+    let data_block = usize::from(header(9));
+    let analog_per_channel = usize::from(header(10));
+    let scale_bytes: [u8; 4] = bytes[12..16].try_into().map_err(|_| "short header")?;
+    let scale = if big_endian {
+        f32::from_be_bytes(scale_bytes)
+    } else {
+        // DEC floats keep the sign bit where Intel has it.
+        f32::from_le_bytes(scale_bytes)
+    };
+    if data_block <= parameter_block || data_block > blocks {
+        return Err(format!(
+            "the data section starts in block {data_block}: not after the parameters (block \
+             {parameter_block}) and inside the file's {blocks} blocks"
+        ));
+    }
+    // c3dio reads the parameter section from block 2 up to the data, whatever word 1 says.
+    let (groups, parameters) = walk_parameters(&bytes[512..(data_block - 1) * 512], big_endian)?;
+    let group_name = |id: i8| {
+        groups
+            .iter()
+            .find(|(g, _)| *g == id)
+            .map(|(_, n)| n.as_str())
+    };
+    let named = |group: &str, name: &str| -> Vec<&RawParameter<'_>> {
+        parameters
+            .iter()
+            .filter(|p| {
+                p.name == name
+                    && group_name(p.group_id).is_some_and(|g| g.eq_ignore_ascii_case(group))
+            })
+            .collect()
+    };
+    if points == 0 {
+        return Err("the header declares no 3-D points".to_owned());
+    }
+    if points > MAX_POINTS {
+        return Err(format!(
+            "the header declares {points} points per frame; c3dio reads at most {MAX_POINTS}"
+        ));
+    }
+    if last_frame < first_frame {
+        return Err(format!(
+            "the header's last frame {last_frame} is before its first frame {first_frame}"
+        ));
+    }
+    let frames = last_frame - first_frame + 1;
+    let float = scale <= 0.0;
+    let bytes_per_frame =
+        points * if float { 16 } else { 8 } + analog_per_frame * if float { 4 } else { 2 };
+    let data_bytes = bytes.len() - (data_block - 1) * 512;
+    let needed = frames * bytes_per_frame;
+    if needed > data_bytes {
+        return Err(format!(
+            "the header declares {frames} frames of {points} points and {analog_per_frame} analog \
+             samples ({needed} bytes), the data section holds {data_bytes} bytes"
+        ));
+    }
+    for used in named("ANALOG", "USED") {
+        let channels = first_number(used, big_endian).unwrap_or(0.0);
+        // c3dio reads ANALOG:USED as an unsigned 16-bit count.
+        let channels = if channels < 0.0 {
+            channels + 65536.0
+        } else {
+            channels
+        };
+        if channels > 0.0 && channels * analog_per_channel as f64 != analog_per_frame as f64 {
+            return Err(format!(
+                "ANALOG:USED {channels} channels × {analog_per_channel} samples per frame do not \
+                 make the header's {analog_per_frame} analog samples per frame"
+            ));
+        }
+    }
+    let event_fixes: Vec<usize> = named("EVENT", "USED")
+        .into_iter()
+        .filter(|p| p.element_bytes == 2)
+        .filter(|p| {
+            first_number(p, big_endian).is_some_and(|n| !(0.0..=MAX_EVENTS as f64).contains(&n))
+        })
+        .map(|p| 512 + p.data_at)
+        .collect();
+    for at in event_fixes {
+        bytes[at] = 0;
+        bytes[at + 1] = 0;
+    }
+    Ok(())
 }
 
 /// Writes `clip` as a float-format C3D file with c3dio: one point per joint (labelled by its

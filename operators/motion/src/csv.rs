@@ -68,10 +68,12 @@ fn csv_error(path: &Path, line: usize, reason: impl Into<String>) -> Error {
 /// that do not increase.
 pub fn read_csv(path: impl AsRef<Path>) -> Result<MotionClip> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes =
+        trigait_input_limits::read_bounded(path, crate::MAX_MOTION_FILE_BYTES, "motion file")
+            .map_err(|source| Error::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
     parse_csv(path, &String::from_utf8_lossy(&bytes))
 }
 

@@ -55,6 +55,11 @@ pub use c3d::{read_c3d, write_c3d};
 pub use centres::{
     FootMarkers, JointCentreParams, foot_markers, joint_centres, joint_centres_with,
 };
+
+/// Largest motion file (C3D, TRC, CSV, SDK skeleton text) the readers accept: 512 MiB, an hour
+/// of 300-marker capture at 100 Hz. What a reader builds from a file is bounded by a small
+/// multiple of its size, so this bounds its memory too.
+pub const MAX_MOTION_FILE_BYTES: u64 = 512 << 20;
 pub use csv::{read_csv, write_csv};
 pub use error::{Error, Result};
 pub use lap::{there_and_back, walkway_laps};

@@ -29,10 +29,12 @@ pub struct SdkFrame {
 /// that is not a number; an empty file is an error too.
 pub fn read_sdk_skeletons(path: impl AsRef<Path>) -> Result<Vec<SdkFrame>> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_owned(),
-        source,
-    })?;
+    let text =
+        trigait_input_limits::read_bounded_text(path, crate::MAX_MOTION_FILE_BYTES, "motion file")
+            .map_err(|source| Error::Io {
+                path: path.to_owned(),
+                source,
+            })?;
     parse_sdk_skeletons(&text).map_err(|(line, reason)| Error::SdkSkeleton {
         path: path.to_owned(),
         line,

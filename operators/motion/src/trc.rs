@@ -62,10 +62,12 @@ fn non_empty_fields(line: &str) -> Vec<&str> {
 /// `NumFrames` are present or the last row is cut off.
 pub fn read_trc(path: impl AsRef<Path>) -> Result<MarkerSet> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes =
+        trigait_input_limits::read_bounded(path, crate::MAX_MOTION_FILE_BYTES, "motion file")
+            .map_err(|source| Error::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
     let text = String::from_utf8_lossy(&bytes);
     parse_trc(path, &text)
 }
@@ -164,6 +166,22 @@ fn parse_trc(path: &Path, text: &str) -> Result<MarkerSet> {
         .map(|(i, l)| (i + 1, *l))
         .collect();
     let columns = 2 + 3 * labels.len();
+    // A row may stop early (its missing cells are gaps), so the cells are bounded by the file's
+    // size rather than by its rows: at most one cell per byte of the file.
+    let cells = data_lines.len().saturating_mul(labels.len());
+    if cells > text.len() {
+        return Err(trc_error(
+            path,
+            6,
+            format!(
+                "{} rows of {} markers ({cells} cells) are more than a file of {} bytes can \
+                 hold; rows this short are not marker data",
+                data_lines.len(),
+                labels.len(),
+                text.len()
+            ),
+        ));
+    }
     let mut frames = Vec::with_capacity(data_lines.len());
     for (k, (line_no, l)) in data_lines.iter().enumerate() {
         let fields: Vec<&str> = l.split('\t').map(str::trim).collect();

@@ -142,6 +142,12 @@ pub struct SensorEntry {
     pub yaw_pitch_roll_deg: Option<[f64; 3]>,
 }
 
+/// Most sensors a rig may have (the built-in rings stop at 64).
+pub const MAX_SENSORS: usize = 256;
+
+/// Largest rig file read: 256 sensors take about 40 kB of YAML.
+pub const MAX_RIG_FILE_BYTES: usize = 256 << 10;
+
 /// Sensors closer together than this cannot both stand there.
 pub const MIN_SEPARATION_M: f64 = 0.05;
 
@@ -178,10 +184,12 @@ impl Rig {
     /// # Errors
     /// [`Error::Read`], [`Error::Yaml`], [`Error::Invalid`] or [`Error::Empty`].
     pub fn from_file(path: &Path) -> Result<Rig> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Read {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text =
+            trigait_input_limits::read_bounded_text(path, MAX_RIG_FILE_BYTES as u64, "rig file")
+                .map_err(|source| Error::Read {
+                    path: path.display().to_string(),
+                    source,
+                })?;
         let mut rig = Rig::from_yaml_str(&text, &path.display().to_string())?;
         if rig.name.is_empty() {
             rig.name = path
@@ -196,6 +204,13 @@ impl Rig {
     /// # Errors
     /// [`Error::Yaml`], [`Error::Invalid`] or [`Error::Empty`].
     pub fn from_yaml_str(text: &str, origin: &str) -> Result<Rig> {
+        // libyaml's cost grows with the square of the nesting depth: measure it first.
+        trigait_input_limits::check_config_text(text, MAX_RIG_FILE_BYTES).map_err(|message| {
+            Error::Yaml {
+                origin: origin.to_owned(),
+                message,
+            }
+        })?;
         let file: RigFile = serde_yaml::from_str(text).map_err(|e| Error::Yaml {
             origin: origin.to_owned(),
             message: e.to_string(),
@@ -211,6 +226,15 @@ impl Rig {
         if file.sensors.is_empty() {
             return Err(Error::Empty {
                 origin: origin.to_owned(),
+            });
+        }
+        if file.sensors.len() > MAX_SENSORS {
+            return Err(Error::Yaml {
+                origin: origin.to_owned(),
+                message: format!(
+                    "{} sensors, more than the {MAX_SENSORS} a rig may have",
+                    file.sensors.len()
+                ),
             });
         }
         let invalid = |sensor: &str, key, problem: String| Error::Invalid {

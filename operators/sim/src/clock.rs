@@ -11,7 +11,8 @@ use rand_distr::{Distribution, Exp, Gamma, Normal};
 
 use trigait_sync::NtpSample;
 
-/// A sensor clock: `local = true + offset + drift·true + jitter`.
+/// A sensor clock: `local = true + offset + drift·true + jitter`, plus a step scheduled with
+/// [`SimClock::with_step_at`] (someone, or an NTP daemon, setting the clock while it runs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimClock {
     /// Sensor clock minus true time at true time 0, nanoseconds.
@@ -21,6 +22,10 @@ pub struct SimClock {
     /// Standard deviation of the noise on every reading of the clock (timer resolution,
     /// scheduling), nanoseconds.
     pub jitter_nanos: f64,
+    /// True time from which [`Self::step_nanos`] is added (`i64::MAX`: never).
+    pub step_at_true_nanos: i64,
+    /// The scheduled step, nanoseconds (positive: the clock is set forward).
+    pub step_nanos: i64,
 }
 
 impl SimClock {
@@ -31,6 +36,25 @@ impl SimClock {
             offset_nanos,
             drift_ppm,
             jitter_nanos: 0.0,
+            step_at_true_nanos: i64::MAX,
+            step_nanos: 0,
+        }
+    }
+
+    /// The same clock, set `step_nanos` forward (negative: back) at true time `at_true_nanos`.
+    #[must_use]
+    pub fn with_step_at(mut self, at_true_nanos: i64, step_nanos: i64) -> Self {
+        self.step_at_true_nanos = at_true_nanos;
+        self.step_nanos = step_nanos;
+        self
+    }
+
+    /// The scheduled step in effect at `true_nanos`.
+    fn step_by(&self, true_nanos: i64) -> i64 {
+        if true_nanos >= self.step_at_true_nanos {
+            self.step_nanos
+        } else {
+            0
         }
     }
 
@@ -55,13 +79,23 @@ impl SimClock {
         true_nanos
             .saturating_add(self.offset_nanos)
             .saturating_add(drift)
+            .saturating_add(self.step_by(true_nanos))
     }
 
-    /// True time at which the clock (without jitter) reads `local_nanos`.
+    /// True time at which the clock (without jitter) reads `local_nanos`; after a step that
+    /// set the clock back, a reading the clock showed twice maps to its later instant.
     #[must_use]
     pub fn true_from_local(&self, local_nanos: i64) -> i64 {
-        let rel = local_nanos.saturating_sub(self.offset_nanos) as f64;
-        (rel / (1.0 + self.drift_ppm * 1e-6)).round() as i64
+        let unstepped = |local: i64| {
+            let rel = local.saturating_sub(self.offset_nanos) as f64;
+            (rel / (1.0 + self.drift_ppm * 1e-6)).round() as i64
+        };
+        let after = unstepped(local_nanos.saturating_sub(self.step_nanos));
+        if after >= self.step_at_true_nanos {
+            after
+        } else {
+            unstepped(local_nanos)
+        }
     }
 
     /// What the clock reads at `true_nanos`, with jitter drawn from `rng`.
@@ -225,6 +259,26 @@ mod tests {
         );
         for t in [0, 1_234_567_890, 60_000_000_000] {
             assert!((c.true_from_local(c.ideal_local_from_true(t)) - t).abs() <= 1);
+        }
+    }
+
+    /// A scheduled step moves the readings from its instant on, and the inverse follows it.
+    #[test]
+    fn scheduled_step() {
+        let c = SimClock::new(5_000, 0.0).with_step_at(1_000_000_000, 1_000_000_000);
+        assert_eq!(c.ideal_local_from_true(999_999_999), 1_000_004_999);
+        assert_eq!(c.ideal_local_from_true(1_000_000_000), 2_000_005_000);
+        for t in [0, 999_999_999, 1_000_000_000, 5_000_000_000] {
+            assert_eq!(c.true_from_local(c.ideal_local_from_true(t)), t);
+        }
+        let back = SimClock::new(0, 0.0).with_step_at(2_000_000_000, -1_000_000_000);
+        // Set back, the clock shows 1.5 s at true 1.5 s and again at 2.5 s: the later is taken.
+        for (t, later) in [
+            (1_500_000_000, 2_500_000_000),
+            (2_000_000_000, 2_000_000_000),
+            (2_500_000_000, 2_500_000_000),
+        ] {
+            assert_eq!(back.true_from_local(back.ideal_local_from_true(t)), later);
         }
     }
 
