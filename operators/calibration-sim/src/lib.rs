@@ -18,6 +18,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use trigait_calibration::{Calibration, Initial, Params, SensorTrack, TrackFrame, Tracks};
+use trigait_fusion::FusionRig;
 use trigait_kinect::NoiseModel;
 use trigait_rig::{Rig, SensorPose};
 use trigait_sim::Simulator;
@@ -312,26 +313,31 @@ pub fn simulate(scenario: &Scenario) -> Result<Outcome> {
         .map(|i| Simulator::sensor_rng(fusion_seed, i))
         .collect();
     let fusion = FusionParams::new(Method::Fusion);
+    let fusion_rig = FusionRig::from_sensors(sim.sensors().to_vec());
     let (mut sq_true, mut sq_cal, mut samples) = (0.0, 0.0, 0usize);
     let duration_secs = sim.motion().duration_secs();
     let frames = (duration_secs * 30.0).floor() as usize;
     for f in 0..=frames {
         let snap = sim.snapshot(f as f64 / 30.0, &mut rngs);
+        let observed = trigait_eval::observe_snapshot(&fusion_rig, &sim, &snap);
         for joint in sim.joints() {
             let Some(truth_p) = snap.truth.get(joint) else {
                 continue;
             };
-            let (idx, obs) = snap.observations(&sim, *joint);
+            let Some(seen) = observed.joints.get(joint) else {
+                continue;
+            };
+            let (idx, obs) = (&seen.sensors, &seen.observations);
             let cal: Vec<_> = idx
                 .iter()
-                .zip(&obs)
+                .zip(obs)
                 .filter_map(|(i, o)| {
                     let mut o = o.clone();
                     o.world_from_kinect = calibrated[*i]?;
                     Some(o)
                 })
                 .collect();
-            let (Ok(a), Ok(b)) = (estimate(&obs, &fusion), estimate(&cal, &fusion)) else {
+            let (Ok(a), Ok(b)) = (estimate(obs, &fusion), estimate(&cal, &fusion)) else {
                 continue;
             };
             sq_true += (a.position - truth_p).norm_squared();
@@ -351,7 +357,7 @@ pub fn simulate(scenario: &Scenario) -> Result<Outcome> {
         let sensor = &sim.sensors()[s];
         for frame in &track.frames {
             for j in &frame.joints {
-                if let Some(o) = trigait_sim::observation(sensor, j.joint, j.state, |q| {
+                if let Some(o) = trigait_fusion::observation(sensor, j.joint, j.state, |q| {
                     frame
                         .joints
                         .iter()
