@@ -21,10 +21,10 @@ pub struct Args {
     /// Rig: `thesis`, `ring-N` or a YAML rig file.
     #[arg(long, default_value = "ring-6")]
     rig: String,
-    /// Joint observations to solve (frames × leg joints of the walker).
-    #[arg(long, default_value_t = 3000)]
+    /// Joint observations to solve (frames × leg joints of the walker), 1 to 1,000,000.
+    #[arg(long, default_value_t = 3000, value_parser = crate::ranges::count(1, 1_000_000))]
     problems: usize,
-    /// Seed of the simulated noise.
+    /// Seed of the simulated noise (any 64-bit number).
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Python interpreter with NumPy and SciPy for the SciPy baseline (scripts/bench.sh sets up

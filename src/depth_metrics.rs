@@ -32,8 +32,9 @@ pub struct Args {
     /// Object mask PNG (512x424, non-zero = object) for the edge-noise band.
     #[arg(long, value_name = "PNG")]
     mask: Option<PathBuf>,
-    /// True distance of a fronto-parallel target plane in metres (otherwise a plane is fitted).
-    #[arg(long, value_name = "METRES")]
+    /// True distance of a fronto-parallel target plane in metres, 0.1 to 10 (otherwise a plane is
+    /// fitted).
+    #[arg(long, value_name = "METRES", value_parser = crate::ranges::number(0.1, 10.0, "m"))]
     target_distance_m: Option<f64>,
     /// Write colour-mapped PNG maps (with legends) into this directory.
     #[arg(long, value_name = "DIR")]
@@ -45,14 +46,14 @@ pub struct Args {
     /// Print the JSON report on stdout instead of the table.
     #[arg(long)]
     json: bool,
-    /// Frames per entropy window (thesis: 30).
-    #[arg(long, default_value_t = 30, value_name = "N")]
+    /// Frames per entropy window, 2 to 1000 (thesis: 30).
+    #[arg(long, default_value_t = 30, value_name = "N", value_parser = crate::ranges::count(2, 1000))]
     entropy_window: usize,
-    /// Evaluate depth resolution and edge noise on every N-th frame.
-    #[arg(long, default_value_t = 1, value_name = "N")]
+    /// Evaluate depth resolution and edge noise on every N-th frame, 1 to 100,000.
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = crate::ranges::count(1, 100_000))]
     frame_stride: usize,
-    /// Depth jump that separates an object from its background, millimetres.
-    #[arg(long, default_value_t = 100, value_name = "MM")]
+    /// Depth jump that separates an object from its background, millimetres, 1 to 4500.
+    #[arg(long, default_value_t = 100, value_name = "MM", value_parser = clap::value_parser!(u16).range(1..=4500))]
     jump_mm: u16,
 }
 

@@ -21,13 +21,14 @@ pub struct Args {
     /// Rig: `thesis`, `ring-N` or a YAML rig file [default: thesis, or ring-N with --sensors N].
     #[arg(long)]
     rig: Option<String>,
-    /// Use only the first N sensors of the rig (without --rig: the built-in ring-N).
-    #[arg(long)]
+    /// Use only the first N sensors of the rig (without --rig: the built-in ring-N, 3 to 64),
+    /// 1 to 256.
+    #[arg(long, value_parser = crate::ranges::count(1, 256))]
     sensors: Option<usize>,
-    /// Independent noise draws of the whole motion.
-    #[arg(long, default_value_t = 20)]
+    /// Independent noise draws of the whole motion, 1 to 10,000.
+    #[arg(long, default_value_t = 20, value_parser = crate::ranges::count(1, 10_000))]
     trials: usize,
-    /// Seed of the first trial (trial k uses seed + k).
+    /// Seed of the first trial (trial k uses seed + k; any 64-bit number).
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Methods, comma-separated: geometric, linear, nls, fusion, each optionally `+robust`.
@@ -40,14 +41,14 @@ pub struct Args {
     /// Joints: `legs` (hips, knees, ankles), `all`, or comma-separated names (knee_left, …).
     #[arg(long, default_value = "legs")]
     joints: String,
-    /// Duration of the walker, seconds (it crosses the 3 m walkway in about 2.5 s).
-    #[arg(long, default_value_t = 2.5)]
+    /// Duration of the walker, seconds, 0.1 to 600 (it crosses the 3 m walkway in about 2.5 s).
+    #[arg(long, default_value_t = 2.5, value_parser = crate::ranges::number(0.1, 600.0, "s"))]
     duration_secs: f64,
-    /// Sampling rate of the walker, Hz (the Kinect v2 frame rate is 30 Hz).
-    #[arg(long, default_value_t = 30.0)]
+    /// Sampling rate of the walker, Hz, 1 to 1000 (the Kinect v2 frame rate is 30 Hz).
+    #[arg(long, default_value_t = 30.0, value_parser = crate::ranges::number(1.0, 1000.0, "Hz"))]
     rate_hz: f64,
-    /// Worker threads [default: all cores].
-    #[arg(long)]
+    /// Worker threads, 1 to 256 [default: all cores].
+    #[arg(long, value_parser = crate::ranges::count(1, 256))]
     threads: Option<usize>,
     /// Print the report as JSON on stdout instead of tables.
     #[arg(long)]
@@ -86,12 +87,58 @@ pub fn run(args: &Args) -> eyre::Result<()> {
         bar.set_position(done as u64);
     });
     bar.finish_and_clear();
+    require_common_samples(&report)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         print!("{}", render(&report));
     }
     Ok(())
+}
+
+/// The comparison needs samples that every method solved; without any, every statistic would
+/// be NaN or zero and read as a perfect score. The error says what each method solved and why
+/// the others failed.
+fn require_common_samples(report: &Report) -> eyre::Result<()> {
+    if report.common_samples > 0 {
+        return Ok(());
+    }
+    let per_method: Vec<String> = report
+        .methods
+        .iter()
+        .map(|m| {
+            let failures: Vec<String> = m
+                .own
+                .failures
+                .iter()
+                .map(|(reason, n)| format!("{n} {reason}"))
+                .collect();
+            let failures = if failures.is_empty() {
+                String::new()
+            } else {
+                format!(" (unsolved: {})", failures.join(", "))
+            };
+            format!("{} solved {}{failures}", m.method, m.own.solved)
+        })
+        .collect();
+    bail!(
+        "no joint sample was solved by every method, so the methods cannot be compared: of {} \
+         joint samples, {}; a joint was seen by {:.2} of the rig's {} sensors on average \
+         (trilateration needs at least 3 sensors that are not in a line, and the motion in their view)",
+        report.joint_samples,
+        per_method.join("; "),
+        report.visibility.mean_sensors_reporting,
+        report.sensors.len()
+    )
+}
+
+/// A ratio for the table, or a dash when it is not a number.
+fn ratio(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.2}")
+    } else {
+        "–".to_owned()
+    }
 }
 
 /// The rig from `--rig`/`--sensors`.
@@ -204,7 +251,7 @@ fn render(r: &Report) -> String {
         );
         let _ = writeln!(
             out,
-            "{:<15} {:>7.1}% {:>8} {:>8} {:>8} {:>22} {:>8} {:>8.2} {:>12} {:>9.0}%",
+            "{:<15} {:>7.1}% {:>8} {:>8} {:>8} {:>22} {:>8} {:>8} {:>12} {:>9}%",
             m.method,
             m.own.coverage * 100.0,
             mm(m.rmse_m),
@@ -212,12 +259,14 @@ fn render(r: &Report) -> String {
             mm(m.p95_m),
             xyz,
             mm(m.crb_rmse_m),
-            m.rmse_over_crb,
+            ratio(m.rmse_over_crb),
             mm(m.best_single_sensor_rmse_m),
-            if m.gain_over_linear.abs() < 0.005 {
-                0.0
+            if !m.gain_over_linear.is_finite() {
+                "–".to_owned()
+            } else if m.gain_over_linear.abs() < 0.005 {
+                "0".to_owned()
             } else {
-                -m.gain_over_linear * 100.0
+                format!("{:.0}", -m.gain_over_linear * 100.0)
             }
         );
     }

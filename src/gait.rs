@@ -31,8 +31,8 @@ pub struct Args {
     /// Write trajectory and footfall plots (SVG and PNG) into this directory.
     #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
-    /// Fewest complete strides (both feet together) accepted.
-    #[arg(long, default_value_t = 2)]
+    /// Fewest complete strides (both feet together) accepted, 0 to 1000.
+    #[arg(long, default_value_t = 2, value_parser = crate::ranges::count(0, 1000))]
     pub min_strides: usize,
     /// Also play the walk through the simulated Kinect pipeline (rig, Kinect v2 noise model,
     /// fusion estimator, 30 Hz) and compare its gait parameters with those of the file.
@@ -41,7 +41,7 @@ pub struct Args {
     /// Rig for `--kinect-sim`: a built-in name (thesis, ring-N) or a rig YAML file.
     #[arg(long, default_value = "thesis", requires = "kinect_sim")]
     pub rig: String,
-    /// Noise seed for `--kinect-sim`.
+    /// Noise seed for `--kinect-sim` (any 64-bit number).
     #[arg(long, default_value_t = 1, requires = "kinect_sim")]
     pub seed: u64,
     /// Filter applied to the simulated Kinect trajectories before their gait analysis.

@@ -16,6 +16,7 @@ mod devices;
 mod eval;
 mod export;
 mod gait;
+mod ranges;
 
 /// Markerless 3-D gait tracking from several Kinect v2 depth sensors.
 #[derive(Debug, Parser)]
@@ -56,12 +57,51 @@ fn run(args: Args) -> eyre::Result<()> {
     }
 }
 
+/// The last panic's message and place, kept by the quiet panic hook.
+static LAST_PANIC: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
+
+/// Unless the user asked for backtraces (`RUST_BACKTRACE` set and not `0`), a panic prints
+/// nothing where it happens: a reader that contains a third-party parser's panic turns it into
+/// its own clean error, and a panic that reaches `main` is printed there as one line.
+fn install_quiet_panic_hook() {
+    let wants_backtrace = std::env::var_os("RUST_BACKTRACE").is_some_and(|v| v != "0");
+    if wants_backtrace {
+        return;
+    }
+    std::panic::set_hook(Box::new(|info| {
+        let message = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_owned())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".to_owned());
+        let place = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        if let Ok(mut last) = LAST_PANIC.lock() {
+            *last = Some(format!("{message}{place}"));
+        }
+    }));
+}
+
 fn main() -> ExitCode {
-    match run(Args::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
+    install_quiet_panic_hook();
+    let args = Args::parse();
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(args))) {
+        Ok(Ok(())) => ExitCode::SUCCESS,
+        Ok(Err(err)) => {
             eprintln!("error: {err:#}");
             ExitCode::from(2)
+        }
+        Err(_) => {
+            let last = LAST_PANIC.lock().ok().and_then(|mut l| l.take());
+            eprintln!(
+                "error: internal error (a bug in trigait, please report it): {}; run with \
+                 RUST_BACKTRACE=1 for a backtrace",
+                last.unwrap_or_else(|| "panic".to_owned())
+            );
+            ExitCode::from(101)
         }
     }
 }

@@ -154,7 +154,7 @@ fn bad_input_is_a_clear_error() {
         ),
         (vec!["--rig", "thesis", "--sensors", "5"], "has 3 sensors"),
         (vec!["--joints", "tail"], "unknown joint \"tail\""),
-        (vec!["--trials", "0"], "--trials must be at least 1"),
+        (vec!["--trials", "0"], "0 is not in 1..=10000"),
     ];
     for (args, expected) in cases {
         let mut all = vec!["eval"];

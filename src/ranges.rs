@@ -1,0 +1,44 @@
+//! Value parsers for numeric options with a documented range, so that an out-of-range number
+//! is a clap error naming the range instead of an allocation or a run that never ends.
+
+use clap::builder::RangedU64ValueParser;
+
+/// A count in `min..=max`.
+pub fn count(min: u64, max: u64) -> RangedU64ValueParser<usize> {
+    RangedU64ValueParser::<usize>::new().range(min..=max)
+}
+
+/// A finite number in `min..=max`; the error names the range and `unit`.
+pub fn number(
+    min: f64,
+    max: f64,
+    unit: &'static str,
+) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
+    move |text: &str| {
+        let value: f64 = text
+            .trim()
+            .parse()
+            .map_err(|_| format!("{text:?} is not a number"))?;
+        if value.is_finite() && (min..=max).contains(&value) {
+            Ok(value)
+        } else {
+            Err(format!("{value} is not in {min}..={max} {unit}"))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// In-range numbers pass, others are errors that name the range.
+    #[test]
+    fn number_checks_its_range() {
+        let secs = number(0.1, 600.0, "s");
+        assert_eq!(secs("2.5"), Ok(2.5));
+        assert!(secs("1e9").unwrap_err().contains("0.1..=600 s"));
+        assert!(secs("NaN").is_err());
+        assert!(secs("inf").is_err());
+        assert!(secs("ten").unwrap_err().contains("not a number"));
+    }
+}

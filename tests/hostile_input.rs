@@ -1,0 +1,188 @@
+//! `trigait` as an outside tester drives it with hostile input: numbers out of range, a C3D
+//! header that lies about its size, a rig YAML nested 100,000 deep, and rigs on which nothing
+//! can be solved. Each must end in one clear error line and a non-zero exit, fast, never in an
+//! abort, a panic with a backtrace, or a table of NaN.
+//!
+//! The binary runs without `RUST_BACKTRACE` (the environment of a user who did not ask for
+//! backtraces).
+
+// Test helpers outside `#[test]` functions panic on failure by design.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+fn trigait(args: &[&str]) -> (Output, Duration) {
+    let started = Instant::now();
+    let out = Command::new(env!("CARGO_BIN_EXE_trigait"))
+        .args(args)
+        .env_remove("RUST_BACKTRACE")
+        .env_remove("RUST_LIB_BACKTRACE")
+        .output()
+        .expect("the trigait binary runs");
+    (out, started.elapsed())
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("trigait-hostile-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// Asserts a failed run that printed `expected` and no panic or backtrace.
+fn assert_clean_failure(out: &Output, expected: &str, what: &str) {
+    let err = stderr(out);
+    assert!(
+        !out.status.success() && out.status.code().is_some(),
+        "{what}: {:?}\n{err}",
+        out.status
+    );
+    assert!(
+        err.contains(expected),
+        "{what}: expected {expected:?} in\n{err}"
+    );
+    for bad in [
+        "panicked",
+        "stack backtrace",
+        "RUST_BACKTRACE=1` environment",
+    ] {
+        assert!(!err.contains(bad), "{what}: {bad:?} in\n{err}");
+    }
+}
+
+/// Out-of-range numbers are clap errors (exit 2) that state the range.
+#[test]
+fn out_of_range_numbers_are_clap_errors() {
+    let cases: [(&[&str], &str); 8] = [
+        (&["eval", "--duration-secs", "1e9"], "0.1..=600 s"),
+        (&["eval", "--duration-secs", "NaN"], "0.1..=600 s"),
+        (&["eval", "--rate-hz", "1e9"], "1..=1000 Hz"),
+        (&["eval", "--trials", "4294967296"], "1..=10000"),
+        (&["eval", "--threads", "0"], "1..=256"),
+        (
+            &["depth-metrics", "x.png", "--entropy-window", "4294967296"],
+            "2..=1000",
+        ),
+        (
+            &[
+                "depth-metrics",
+                "x.png",
+                "--entropy-window",
+                "18446744073709551615",
+            ],
+            "2..=1000",
+        ),
+        (&["bench", "--problems", "0"], "1..=1000000"),
+    ];
+    for (args, range) in cases {
+        let (out, elapsed) = trigait(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
+        assert_clean_failure(&out, range, &format!("{args:?}"));
+        assert!(
+            elapsed < Duration::from_secs(5),
+            "{args:?} took {elapsed:?}"
+        );
+    }
+    // The help says the ranges too.
+    let (out, _) = trigait(&["eval", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        help.contains("1 to 10,000") && help.contains("0.1 to 600"),
+        "{help}"
+    );
+}
+
+/// A C3D header claiming 32767 points × 32767 frames is refused before anything is allocated,
+/// by every command that reads motion.
+#[test]
+fn lying_c3d_header_is_a_clean_error() {
+    let Some(cmu) = trigait_test_data::shared_file("mocap-cmu-07_01/07_01.c3d") else {
+        return;
+    };
+    let mut bytes = std::fs::read(cmu).unwrap();
+    // Word 2: points per frame; word 4/5: first/last frame (Intel byte order).
+    bytes[2..4].copy_from_slice(&32767u16.to_le_bytes());
+    bytes[6..8].copy_from_slice(&1u16.to_le_bytes());
+    bytes[8..10].copy_from_slice(&32767u16.to_le_bytes());
+    let file = scratch("lying.c3d");
+    std::fs::write(&file, &bytes).unwrap();
+    let path = file.to_str().unwrap();
+    let out_file = scratch("out.csv");
+    for args in [
+        vec!["gait", path],
+        vec!["eval", "--motion", path, "--trials", "1"],
+        vec!["export", path, "-o", out_file.to_str().unwrap()],
+    ] {
+        let (out, elapsed) = trigait(&args);
+        assert_clean_failure(&out, "points per frame", &format!("{args:?}"));
+        assert_eq!(
+            stderr(&out).lines().count(),
+            1,
+            "{args:?}: one line: {}",
+            stderr(&out)
+        );
+        assert!(
+            elapsed < Duration::from_secs(5),
+            "{args:?} took {elapsed:?}"
+        );
+    }
+    // The frames alone, with a plausible point count, are checked against the file too.
+    let mut bytes =
+        std::fs::read(trigait_test_data::shared_file("mocap-cmu-07_01/07_01.c3d").unwrap())
+            .unwrap();
+    bytes[8..10].copy_from_slice(&32767u16.to_le_bytes());
+    std::fs::write(&file, &bytes).unwrap();
+    let (out, _) = trigait(&["gait", path]);
+    assert_clean_failure(&out, "the data section holds", "frames beyond the file");
+}
+
+/// A 200 kB rig YAML nested 100,000 deep fails in well under a second with a clear error.
+#[test]
+fn deeply_nested_rig_yaml_fails_fast() {
+    let file = scratch("deep.yml");
+    let text = format!("sensors: {}\n", "[".repeat(100_000) + &"]".repeat(100_000));
+    std::fs::write(&file, &text).unwrap();
+    let (out, elapsed) = trigait(&["eval", "--rig", file.to_str().unwrap(), "--trials", "1"]);
+    assert_clean_failure(&out, "nested", "deep rig");
+    assert!(elapsed < Duration::from_secs(2), "took {elapsed:?}");
+}
+
+/// `eval` on rigs where no sample is solved by every method exits non-zero and says which
+/// method solved what and why; no table of NaN is printed.
+#[test]
+fn eval_with_nothing_solvable_is_an_error() {
+    let collinear = scratch("collinear.yml");
+    std::fs::write(
+        &collinear,
+        "sensors:\n\
+         \x20 - {id: a, position: [-2.0, 2.5, 1.5], look_at: [0, 0, 0.5]}\n\
+         \x20 - {id: b, position: [0.0, 2.5, 1.5], look_at: [0, 0, 0.5]}\n\
+         \x20 - {id: c, position: [2.0, 2.5, 1.5], look_at: [0, 0, 0.5]}\n",
+    )
+    .unwrap();
+    let collinear = collinear.to_str().unwrap().to_owned();
+    for args in [
+        vec!["eval", "--rig", collinear.as_str(), "--trials", "1"],
+        vec!["eval", "--rig", "thesis", "--sensors", "2", "--trials", "1"],
+        vec!["eval", "--rig", "thesis", "--sensors", "1", "--trials", "1"],
+    ] {
+        let (out, _) = trigait(&args);
+        assert_clean_failure(
+            &out,
+            "no joint sample was solved by every method",
+            &format!("{args:?}"),
+        );
+        let err = stderr(&out);
+        assert!(
+            err.contains("linear solved") && err.contains("fusion solved"),
+            "{err}"
+        );
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(!stdout.contains("NaN"), "{stdout}");
+    }
+}
