@@ -326,7 +326,7 @@ fn kinect_table(reference: &GaitAnalysis, k: &KinectSim) -> String {
     }
     let _ = writeln!(
         out,
-        "within issue-5 tolerances (stride 3 cm, cadence 2 %, step width 2 cm): {}",
+        "within tolerance (stride length 3 cm, cadence 2 %, step width 2 cm): {}",
         if k.within_tolerances { "yes" } else { "NO" }
     );
     out

@@ -1,6 +1,6 @@
-//! The depth metrics' maps and report, logged to rerun (issue 6, item 8: "the same maps logged
-//! to rerun when asked"), written once for both callers: the `depth-metrics` dataflow node (live
-//! frames) and `trigait depth-metrics --rrd` (recorded frames).
+//! The depth metrics' maps and report, logged to rerun when asked, written once for both
+//! callers: the `depth-metrics` dataflow node (live frames) and `trigait depth-metrics --rrd`
+//! (recorded frames).
 //!
 //! Why a separate crate and not a `rerun` feature of `trigait-depth`: `trigait-depth` is an
 //! operator crate and stays free of I/O frameworks (DESIGN.md, "Algorithms live in `operators/`

@@ -1,5 +1,5 @@
 //! `depth-metrics`: the thesis's five Kinect v2 depth metrics (ch. 3, results §5.1) on the live
-//! depth stream of every sensor (issue 6, items 1 and 8). Each `depth_<sensor>` input feeds that
+//! depth stream of every sensor. Each `depth_<sensor>` input feeds that
 //! sensor's [`trigait_depth::SequenceAnalyzer`] — the code `trigait depth-metrics` runs on PNG
 //! files — and every `REPORT_EVERY_FRAMES` frames the sensor's report is recomputed, written to
 //! `OUTPUT_DIR/depth-metrics.json` and, with `RERUN`, its maps and scalars logged to rerun

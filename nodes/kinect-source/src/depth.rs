@@ -1,5 +1,5 @@
 //! The optional `depth` output: raw 512×424 depth frames (`depth_frame`) for the thesis's depth
-//! metrics on the live stream (issue 6, item 1; thesis ch. 3 and §5.1), next to the skeleton.
+//! metrics on the live stream (thesis ch. 3 and §5.1), next to the skeleton.
 //!
 //! Off unless `DEPTH_RATE_HZ` is set, so graphs without it behave exactly as before (and need
 //! not declare the output). Two sources, chosen by `DEPTH_DIR`:

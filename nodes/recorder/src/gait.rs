@@ -1,5 +1,5 @@
 //! Gait events and spatiotemporal parameters of the fused walk, logged to rerun while the graph
-//! runs and written to `summary.json` at the end (issue 5, build item 4).
+//! runs and written to `summary.json` at the end.
 //!
 //! The analysis is `trigait-gait`'s [`LiveGait`] with the `trigait gait` defaults (Zeni et al.
 //! 2008 coordinate method, two strides at least): every second of stream time the retained

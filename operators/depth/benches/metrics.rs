@@ -1,4 +1,4 @@
-//! All five depth metrics on 30 simulated 512×424 frames (issue 6: ≤ 50 ms on one core), with a
+//! All five depth metrics on 30 simulated 512×424 frames (the goal: ≤ 50 ms on one core), with a
 //! same-run baseline — one plain read pass summing the same 30 frames — so the printed ratio
 //! does not depend on how busy the shared machine is.
 //!

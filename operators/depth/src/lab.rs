@@ -1,5 +1,5 @@
 //! Scenes a gait lab images to check a sensor before a session, placed by the sensor's pose in
-//! the rig, for the simulated depth stream of `kinect-source` (issue 6, item 1).
+//! the rig, for the simulated depth stream of `kinect-source`.
 //!
 //! Two targets, both from the thesis's protocol:
 //! - [`LabTarget::Wall`]: a flat wall or board facing the sensor at a known distance — the

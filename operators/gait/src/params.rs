@@ -387,7 +387,7 @@ pub struct Tolerances {
 }
 
 impl Tolerances {
-    /// Issue 5's acceptance for the simulated Kinect pipeline against the markers: stride length
+    /// What the simulated Kinect pipeline must meet against the markers: stride length
     /// within 3 cm, cadence within 2 %, step width within 2 cm.
     pub const ISSUE_5: Tolerances = Tolerances {
         stride_length_m: 0.03,

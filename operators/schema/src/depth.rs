@@ -1,5 +1,5 @@
 //! `depth_frame`: one raw depth image of one sensor (`kinect-source → depth-metrics`), the
-//! input of the thesis's five depth metrics (ch. 3, §5.1) on the live stream (issue 6, item 1).
+//! input of the thesis's five depth metrics (ch. 3, §5.1) on the live stream.
 //!
 //! ```text
 //! Struct { sensor_id: Utf8, seq: UInt64, local_stamp_nanos: Int64 (sensor clock),

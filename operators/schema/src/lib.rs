@@ -9,7 +9,7 @@
 //! | `fused_pose` | `trilaterate → recorder` | [`FusedPose`] |
 //! | `frame_timing` | `sync → recorder` | [`FrameTiming`] |
 //! | `ground_truth` | one simulated `kinect-source → recorder` | [`GroundTruth`] (world frame, once per true instant) |
-//! | `depth_frame` | `kinect-source → depth-metrics` (issue 6) | [`DepthFrameMessage`] |
+//! | `depth_frame` | `kinect-source → depth-metrics` | [`DepthFrameMessage`] |
 //!
 //! Port ids and metadata keys are in [`ports`].
 //!
