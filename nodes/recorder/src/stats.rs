@@ -165,32 +165,8 @@ pub struct NtpSummary {
     pub drift_ppm: Option<f64>,
 }
 
-/// p50/p99/max of a sample, ms, by the one percentile rule ([`trigait_scoring::percentile`]).
-#[derive(Debug, Clone, Copy, Serialize, Default, PartialEq)]
-pub struct Percentiles {
-    /// Samples.
-    pub count: usize,
-    /// Median.
-    pub p50: f64,
-    /// 99th percentile.
-    pub p99: f64,
-    /// Largest.
-    pub max: f64,
-}
-
-impl Percentiles {
-    /// From nanosecond samples.
-    #[must_use]
-    pub fn of_nanos(values: &[i64]) -> Self {
-        let p = trigait_scoring::Percentiles::of_nanos(values);
-        Self {
-            count: p.count,
-            p50: p.p50,
-            p99: p.p99,
-            max: p.max,
-        }
-    }
-}
+/// p50/p99/max of a sample, ms, by the one percentile rule.
+pub use trigait_scoring::Percentiles;
 
 impl Default for Stats {
     fn default() -> Self {

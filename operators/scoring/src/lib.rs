@@ -129,8 +129,9 @@ impl PositionErrors {
     }
 }
 
-/// p50/p99/max of a sample by the [`percentile`] rule, in milliseconds.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+/// p50/p99/max of a sample by the [`percentile`] rule, in milliseconds (serialised as is into
+/// a run's `summary.json`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct Percentiles {
     /// Samples.
     pub count: usize,
