@@ -77,7 +77,10 @@ fn filtered_graph_runs_and_poses_reach_the_recorder() {
     );
     run.assert_no_sets_lost();
     assert_eq!(s["malformed_inputs"], 0, "{s:#}");
-    assert!(s["joints_fused"].as_u64().unwrap() >= sets * 6, "{s:#}");
+    // Six joints in every complete set. An incomplete set (a sensor not yet synchronised at
+    // start-up) may lack a joint that only the missing sensor saw.
+    let complete = sets.saturating_sub(s["incomplete_sets"].as_u64().unwrap());
+    assert!(s["joints_fused"].as_u64().unwrap() >= complete * 6, "{s:#}");
     let temporal = run.rrd().temporal;
     assert_eq!(
         temporal.get("world/fused").copied(),
