@@ -5,11 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-if [ ! -x .venv/bin/dora ]; then
-  echo "==> creating .venv with dora-rs-cli==1.1.0 (and rerun-sdk==0.36.3 for the viewer)"
-  python3 -m venv .venv
-  .venv/bin/pip install --quiet dora-rs-cli==1.1.0 rerun-sdk==0.36.3
-fi
+scripts/venv.sh   # .venv/ with the pinned packages of scripts/requirements.txt
 export PATH="$PWD/.venv/bin:$PATH"
 
 echo "==> building the nodes (release)"
