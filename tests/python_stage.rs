@@ -37,11 +37,14 @@ const FUSION_PERIOD_MS: f64 = 1e3 / 30.0;
 /// weights sum to 1, so its value from rounded inputs is within 1 µm of the exact one.
 const CSV_TOLERANCE_M: f64 = 2e-6;
 
-/// The Python that `dora run` starts `.py` nodes with: the first `python` on PATH, which the
-/// test puts at `.venv/bin` when the venv exists. `None` (and a message) when it lacks pyarrow
-/// or dora; under `CI=true` that is a failure.
+/// The Python that `dora run` starts `.py` nodes with (dora 1.1 spawns `python -u <node>.py`
+/// with the first `python` on PATH, which the test puts at `.venv/bin` when the venv exists).
+/// `None` (and a message) when it lacks pyarrow or dora; under `CI=true` that is a failure.
 fn python_with_dora() -> Option<PathBuf> {
-    let python = common::python();
+    // `.venv/bin/python` when the venv exists, else what dora would find: `python` on PATH.
+    let python = Some(common::python())
+        .filter(|p| p.is_absolute())
+        .unwrap_or_else(|| PathBuf::from("python"));
     let probe = Command::new(&python)
         .args([
             "-c",
@@ -72,16 +75,23 @@ fn python_with_dora() -> Option<PathBuf> {
     None
 }
 
-/// PATH with the Python's folder first, so `dora run` starts the stage with it.
+/// PATH with the Python's folder first (when it is a path, not a bare `python3` found on PATH),
+/// so `dora run` starts the stage with it.
 fn path_with(python: &std::path::Path) -> std::ffi::OsString {
-    let mut dirs = vec![python.parent().map(PathBuf::from).unwrap_or_default()];
+    let mut dirs: Vec<PathBuf> = python
+        .parent()
+        .filter(|dir| !dir.as_os_str().is_empty())
+        .map(PathBuf::from)
+        .into_iter()
+        .collect();
     dirs.extend(std::env::split_paths(
         &std::env::var_os("PATH").unwrap_or_default(),
     ));
     std::env::join_paths(dirs).expect("PATH")
 }
 
-/// A second recorder, on `trilaterate`'s poses before the stage, writing to `out/raw`.
+/// A second recorder, on `trilaterate`'s poses before the stage (its `OUTPUT_DIR` becomes
+/// `out-raw` in the test folder).
 const RAW_RECORDER: &str = "
   - id: recorder-raw
     build: cargo build --release --workspace --all-targets
