@@ -12,8 +12,8 @@ k+1:
     p'(k) = w * p(k-1) + (1 - 2w) * p(k) + w * p(k+1)
 
 with w = NEIGHBOUR_WEIGHT (0.25 by default: the binomial kernel [1, 2, 1] / 4, which keeps a
-straight-line motion exactly and removes three quarters of frame-to-frame white noise in the
-second difference). Being centred it adds no lag to the trajectory, at the price of emitting
+straight-line motion exactly and cuts the frame-to-frame second difference of white noise to a
+quarter). Being centred it adds no lag to the trajectory, at the price of emitting
 pose k only when pose k+1 has arrived: one fusion period later (33 ms at 30 Hz). The pose keeps
 its own stamp, set number and metadata, so the recorder scores it against the ground truth at
 the right instant and measures its latency (`trigait.trigger_sent_nanos`) honestly, wait
@@ -90,12 +90,35 @@ class Malformed(ValueError):
     """An input that is not a valid one-row `fused_pose`."""
 
 
+def _no_nulls(value, path: str) -> None:
+    """Every field of `fused_pose` is non-nullable, but Arrow does not enforce that on data."""
+    if value is None:
+        raise Malformed(f"{path}: null")
+    if isinstance(value, dict):
+        for key, item in value.items():
+            _no_nulls(item, f"{path}.{key}")
+    elif isinstance(value, list):
+        for item in value:
+            _no_nulls(item, path)
+
+
+def _joint_codes(items: list, path: str) -> None:
+    """Joint numbers are 0..=24 and each appears at most once in a list."""
+    seen = set()
+    for item in items:
+        code = item["joint"]
+        if code >= JOINT_COUNT:
+            raise Malformed(f"{path}.joint: {code} is not a joint number 0..=24")
+        if code in seen:
+            raise Malformed(f"{path}.joint: joint {code} twice")
+        seen.add(code)
+
+
 def decode(value: pa.Array) -> dict:
     """The one pose in `value` as a plain dict (field names as in MESSAGES.md).
 
     Raises Malformed with the reason when the type, the row count or a value is not what
-    MESSAGES.md says: Arrow does not enforce non-nullable fields on data, so nulls are checked
-    here too.
+    MESSAGES.md says, so that what this stage sends is always a pose the recorder accepts.
     """
     if not isinstance(value, pa.Array):
         raise Malformed(f"expected an Arrow array, got {type(value).__name__}")
@@ -106,23 +129,10 @@ def decode(value: pa.Array) -> dict:
         raise Malformed(f"expected exactly one row, got {len(value)}")
     (pose,) = value.to_pylist()
     if pose is None:
-        raise Malformed("null row")
-    for key in ("set_seq", "stamp_nanos", "joints", "skipped", "missing_sensors"):
-        if pose[key] is None:
-            raise Malformed(f"fused_pose.{key}: null")
-    seen = set()
-    for joint in pose["joints"]:
-        if joint is None or any(v is None for v in joint.values()):
-            raise Malformed("fused_pose.joints: null item or field")
-        code = joint["joint"]
-        if code >= JOINT_COUNT:
-            raise Malformed(f"fused_pose.joints.joint: {code} is not a joint number 0..=24")
-        if code in seen:
-            raise Malformed(f"fused_pose.joints.joint: joint {code} twice")
-        seen.add(code)
-        position = joint["position_in_world_m"]
-        if len(position) != 3 or any(v is None for v in position):
-            raise Malformed("fused_pose.joints.position_in_world_m: not three numbers")
+        raise Malformed("fused_pose: null row")
+    _no_nulls(pose, "fused_pose")
+    _joint_codes(pose["joints"], "fused_pose.joints")
+    _joint_codes(pose["skipped"], "fused_pose.skipped")
     return pose
 
 

@@ -118,11 +118,21 @@ class Wire(unittest.TestCase):
         self.assert_malformed(pa.array([1, 2, 3]), "expected fused_pose")
         self.assert_malformed(pa.array([good, good], type=ps.FUSED_POSE), "exactly one row")
         self.assert_malformed(pa.array([None], type=ps.FUSED_POSE), "null row")
+        nulls = pose(1, [joint(12, [1.0, 2.0, 0.9], sensors=("k1", None))])
+        self.assert_malformed(ps.encode(nulls), "fused_pose.joints.sensors_used: null")
+        nulls = pose(1, [joint(12, [1.0, 2.0, 0.9])])
+        nulls["joints"][0]["covariance_in_world_m2"][4] = None
+        self.assert_malformed(ps.encode(nulls), "covariance_in_world_m2: null")
+        self.assert_malformed(
+            ps.encode(pose(1, [], skipped=[(3, "a"), (3, "b")])), "fused_pose.skipped.joint"
+        )
         self.assert_malformed(ps.encode(pose(1, [joint(30, [0, 0, 0])])), "not a joint number")
         self.assert_malformed(
             ps.encode(pose(1, [joint(12, [0, 0, 0]), joint(12, [1, 0, 0])])), "twice"
         )
-        self.assert_malformed(ps.encode(pose(1, [joint(12, [0, None, 0])])), "three numbers")
+        self.assert_malformed(
+            ps.encode(pose(1, [joint(12, [0, None, 0])])), "position_in_world_m: null"
+        )
         self.assert_malformed("not arrow", "expected an Arrow array")
         # The same fields with `set_seq` nullable is another type.
         fields = [ps.FUSED_POSE.field(i) for i in range(ps.FUSED_POSE.num_fields)]
