@@ -8,7 +8,7 @@
 //! Python dora picks), its poses are not a valid `fused_pose` to the Rust recorder, it loses,
 //! reorders or duplicates poses, it does not apply its documented kernel (checked value by value
 //! against the raw poses), it smooths across a missing neighbour, the smoothing does not lower
-//! the jitter or raises the error against ground truth, or the metadata the recorder measures
+//! the jitter or lags (the error against ground truth grows by more than 5 %), or the metadata the recorder measures
 //! latency from is lost or taken from the wrong pose (the latency must grow by one fusion
 //! period, the wait for the next pose, no more and no less). Its unit tests (malformed input,
 //! gaps, NaN, config) run here too.
@@ -273,8 +273,12 @@ fn python_stage_between_trilaterate_and_recorder() {
         "jitter {jitter_smooth:.2} mm through the stage vs {jitter_raw:.2} mm raw"
     );
     assert!(rmse(&r) < 0.05 && rmse(&s) < 0.05, "{s:#}\n{r:#}");
+    // Centred, the kernel adds no lag: less noise, a little bias where a joint turns sharply
+    // (w·ẍ·dt², ≈ 1 cm at an ankle's peak swing acceleration). Three runs gave 23.4 → 21.7,
+    // 23.1 → 21.7 and 19.8 → 19.9 mm. A pose sent with its successor's stamp (one period of
+    // lag) would add ≈ 40 mm at walking speed.
     assert!(
-        rmse(&s) <= rmse(&r) * 1.02,
+        rmse(&s) <= rmse(&r) * 1.05,
         "RMSE {} m through the stage vs {} m raw",
         rmse(&s),
         rmse(&r)
