@@ -1,9 +1,10 @@
 //! Keeps `MESSAGES.md`, the language-neutral message reference a stage in another language is
 //! written from, honest: every field its tables list must be a field of the message's
 //! [`Message::data_type`] with the same Arrow type and nullability, and every field of every
-//! message must be listed; likewise its joint, tracking-state, port and metadata-key tables
-//! against [`Joint`], [`TrackingState`] and [`crate::ports`]. A schema change without a doc change
-//! fails here, naming the field.
+//! message must be listed, with the unit and frame its name promises (`_nanos` is ns,
+//! `position_in_world_m` is metres in the world frame); likewise its joint, tracking-state, port
+//! and metadata-key tables against [`Joint`], [`TrackingState`] and [`crate::ports`]. A schema
+//! change without a doc change fails here, naming the field.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -144,6 +145,32 @@ fn snake_case(camel: &str) -> String {
     out
 }
 
+/// The unit and frame a field's name promises (`_nanos`, `_m`, `_m2`, `_mm`, `_ppm`;
+/// `_in_kinect_`, `_in_world_`) against the doc's cells.
+fn unit_and_frame(path: &str, unit: &str, frame: &str) -> Option<String> {
+    let name = path.rsplit('.').next().unwrap_or(path);
+    let units = [
+        ("_nanos", "ns"),
+        ("_m2", "m²"),
+        ("_mm", "mm"),
+        ("_ppm", "ppm"),
+        ("_m", "m"),
+    ];
+    if let Some((suffix, expected)) = units.iter().find(|(s, _)| name.ends_with(s))
+        && unit != *expected
+    {
+        return Some(format!("unit {unit:?}, but {suffix} means {expected}"));
+    }
+    let frames = [
+        ("_in_kinect_", "Kinect camera space"),
+        ("_in_world_", "world"),
+    ];
+    frames
+        .iter()
+        .find(|(tag, expected)| name.contains(tag) && !frame.contains(expected))
+        .map(|(tag, expected)| format!("frame {frame:?}, but {tag} means {expected}"))
+}
+
 /// Every disagreement between `doc` and the code, one sentence each.
 fn check(doc: &str) -> Vec<String> {
     let mut problems = Vec::new();
@@ -169,10 +196,13 @@ fn check(doc: &str) -> Vec<String> {
         }
         let mut seen = BTreeSet::new();
         for row in table(lines, "field") {
-            let [path, ty, null, ..] = row.as_slice() else {
+            let [path, ty, null, unit, frame, ..] = row.as_slice() else {
                 problems.push(format!("{name}: short table row {row:?}"));
                 continue;
             };
+            if let Some(problem) = unit_and_frame(path, unit, frame) {
+                problems.push(format!("{name}.{path}: {problem}"));
+            }
             if !seen.insert(path.clone()) {
                 problems.push(format!("{name}.{path}: listed twice"));
             }
@@ -312,7 +342,8 @@ fn messages_md_matches_the_schema() {
 }
 
 /// The check can fail: a changed type, a changed nullability, an undocumented field, a field the
-/// message lacks, a wrong joint name and an unknown metadata key are each reported by name.
+/// message lacks, a wrong joint name, an unknown metadata key, and a unit or frame the field's
+/// name contradicts are each reported by name.
 #[test]
 fn messages_md_check_catches_drift() {
     let cases = [
@@ -340,6 +371,16 @@ fn messages_md_check_catches_drift() {
             "| 13 | `knee_left` |",
             "| 13 | `knee_links` |",
             "Joints table",
+        ),
+        (
+            "| no | m | world | true joint centre |",
+            "| no | mm | world | true joint centre |",
+            "ground_truth.joints.position_in_world_m: unit \"mm\", but _m means m",
+        ),
+        (
+            "| m | Kinect camera space | joint position |",
+            "| m | world | joint position |",
+            "skeleton_frame.joints.position_in_kinect_m: frame \"world\"",
         ),
         (
             "Metadata: `trigait.sent_nanos`.",
