@@ -5,10 +5,10 @@
 //! the smoothed and the raw trajectory come from the same poses, and reads both back.
 //!
 //! What could be wrong and is checked: the Python node does not start (no pyarrow or dora in the
-//! Python dora picks), its poses are not a valid `fused_pose` to the Rust recorder, it loses,
+//! Python dora picks), it stops or forwards when fed another message type, its poses are not a valid `fused_pose` to the Rust recorder, it loses,
 //! reorders or duplicates poses, it does not apply its documented kernel (checked value by value
 //! against the raw poses), it smooths across a missing neighbour, the smoothing does not lower
-//! the jitter or lags (the error against ground truth grows by more than 5 %), or the metadata the recorder measures
+//! the jitter or lags (the error against ground truth grows by more than 15 %), or the metadata the recorder measures
 //! latency from is lost or taken from the wrong pose (the latency must grow by one fusion
 //! period, the wait for the next pose, no more and no less). Its unit tests (malformed input,
 //! gaps, NaN, config) run here too.
@@ -90,9 +90,17 @@ fn path_with(python: &std::path::Path) -> std::ffi::OsString {
     std::env::join_paths(dirs).expect("PATH")
 }
 
-/// A second recorder, on `trilaterate`'s poses before the stage (its `OUTPUT_DIR` becomes
-/// `out-raw` in the test folder).
-const RAW_RECORDER: &str = "
+/// Added to the committed graph: a second recorder, on `trilaterate`'s poses before the stage
+/// (its `OUTPUT_DIR` becomes `out-raw` in the test folder), and a second instance of the stage
+/// fed `sync`'s aligned sets on its `fused_pose` input: a well-formed message of another type,
+/// every one of which it must log and skip without stopping.
+const EXTRA_NODES: &str = "
+  - id: python-stage-fed-sets
+    path: ../nodes/python-stage/pose_smoother.py
+    inputs:
+      fused_pose: sync/aligned_set
+    outputs: [fused_pose]
+
   - id: recorder-raw
     build: cargo build --release --workspace --all-targets
     path: ../target/release/trigait-recorder-node
@@ -109,14 +117,14 @@ const RAW_RECORDER: &str = "
       RIG: thesis
 ";
 
-/// Runs the committed graph plus [`RAW_RECORDER`] headless for 10 s: (stage run, raw run).
+/// Runs the committed graph plus [`EXTRA_NODES`] headless for 10 s: (stage run, raw run).
 fn run_with_raw_recorder(python: &std::path::Path) -> (Run, Run) {
     let _guard = common::LOCK.lock().unwrap_or_else(|e| e.into_inner());
     common::build_nodes();
     let dir = common::workspace().join("target/dataflow-tests/python-stage");
     std::fs::remove_dir_all(&dir).ok();
     std::fs::create_dir_all(&dir).unwrap();
-    let graph = std::fs::read_to_string(common::workspace().join(GRAPH)).unwrap() + RAW_RECORDER;
+    let graph = std::fs::read_to_string(common::workspace().join(GRAPH)).unwrap() + EXTRA_NODES;
     let ws = common::workspace();
     // `localise` points every recorder at `<dir>/out`; the raw one gets a folder of its own.
     let text = common::localise(&graph, &dir)
@@ -141,6 +149,29 @@ fn run_with_raw_recorder(python: &std::path::Path) -> (Run, Run) {
         .expect("starting `dora run` (scripts/venv.sh installs the dora CLI)");
     let stage = common::finish(child, dir.clone());
     assert!(stage.success, "dora run {GRAPH} failed:\n{}", stage.log);
+    // The instance fed aligned sets skipped them all and still stopped cleanly.
+    let skipped = stage
+        .log
+        .lines()
+        .filter(|l| {
+            l.contains("python-stage-fed-sets:")
+                && l.contains(
+                    "skipping a malformed fused pose: not a fused_pose: fused_pose: fields",
+                )
+        })
+        .count();
+    assert!(
+        skipped >= 100,
+        "{skipped} aligned sets logged as malformed by python-stage-fed-sets:\n{}",
+        stage.log
+    );
+    assert!(
+        stage
+            .log
+            .contains("python-stage-fed-sets: daemon python-stage-fed-sets finished successfully"),
+        "{}",
+        stage.log
+    );
     let raw = Run {
         out_dir: dir.join("out-raw"),
         ..stage.clone()
@@ -273,12 +304,14 @@ fn python_stage_between_trilaterate_and_recorder() {
         "jitter {jitter_smooth:.2} mm through the stage vs {jitter_raw:.2} mm raw"
     );
     assert!(rmse(&r) < 0.05 && rmse(&s) < 0.05, "{s:#}\n{r:#}");
-    // Centred, the kernel adds no lag: less noise, a little bias where a joint turns sharply
-    // (w·ẍ·dt², ≈ 1 cm at an ankle's peak swing acceleration). Three runs gave 23.4 → 21.7,
-    // 23.1 → 21.7 and 19.8 → 19.9 mm. A pose sent with its successor's stamp (one period of
-    // lag) would add ≈ 40 mm at walking speed.
+    // Centred, the kernel adds no lag: less noise, some bias where a joint's velocity turns
+    // within a frame (w·Δv·dt ≈ 2 cm at the simulated walker's instantaneous turn at each end
+    // of the walkway, ≈ 1 cm at an ankle's peak swing). Which of the two wins depends on where
+    // the 10 s fall in the walk: five runs gave RMSE ratios 0.93, 0.94, 1.00, 1.01, 1.03. A
+    // pose sent a period late (the newest pose's stamp) would add ≈ 40 mm at walking speed in
+    // quadrature, a ratio near 2; half a period, 1.3.
     assert!(
-        rmse(&s) <= rmse(&r) * 1.05,
+        rmse(&s) <= rmse(&r) * 1.15,
         "RMSE {} m through the stage vs {} m raw",
         rmse(&s),
         rmse(&r)

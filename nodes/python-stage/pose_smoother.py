@@ -114,6 +114,32 @@ def _joint_codes(items: list, path: str) -> None:
         seen.add(code)
 
 
+def _fields(data_type: pa.DataType) -> list:
+    return [data_type.field(i) for i in range(data_type.num_fields)]
+
+
+def type_difference(got: pa.DataType, want: pa.DataType, path: str = "fused_pose") -> str:
+    """The first place where `got` differs from `want`, short enough for a log line."""
+    both = lambda test: test(got) and test(want)  # noqa: E731
+    if both(pa.types.is_struct):
+        names, wanted = [f.name for f in _fields(got)], [f.name for f in _fields(want)]
+        if names != wanted:
+            return f"{path}: fields {names}, expected {wanted}"
+        for g, w in zip(_fields(got), _fields(want)):
+            if g.nullable != w.nullable:
+                return f"{path}.{g.name}: nullable {g.nullable}, expected {w.nullable}"
+            if not g.type.equals(w.type):
+                return type_difference(g.type, w.type, f"{path}.{g.name}")
+    elif both(pa.types.is_list) or both(pa.types.is_fixed_size_list):
+        if pa.types.is_fixed_size_list(got) and got.list_size != want.list_size:
+            return f"{path}: {got.list_size} values, expected {want.list_size}"
+        g, w = got.value_field, want.value_field
+        if g.name != w.name or g.nullable != w.nullable:
+            return f"{path}: items {g}, expected {w}"
+        return type_difference(g.type, w.type, path)
+    return f"{path}: {got}, expected {want}"
+
+
 def decode(value: pa.Array) -> dict:
     """The one pose in `value` as a plain dict (field names as in MESSAGES.md).
 
@@ -124,7 +150,7 @@ def decode(value: pa.Array) -> dict:
         raise Malformed(f"expected an Arrow array, got {type(value).__name__}")
     # equals() compares field names, types and nullability, nested ones included.
     if not value.type.equals(FUSED_POSE):
-        raise Malformed(f"expected fused_pose {FUSED_POSE}, got {value.type}")
+        raise Malformed(f"not a fused_pose: {type_difference(value.type, FUSED_POSE)}")
     if len(value) != 1:
         raise Malformed(f"expected exactly one row, got {len(value)}")
     (pose,) = value.to_pylist()

@@ -115,7 +115,7 @@ class Wire(unittest.TestCase):
 
     def test_malformed_inputs_are_refused_with_a_reason(self):
         good = pose(1, [joint(12, [1.0, 2.0, 0.9])])
-        self.assert_malformed(pa.array([1, 2, 3]), "expected fused_pose")
+        self.assert_malformed(pa.array([1, 2, 3]), "not a fused_pose: fused_pose: int64, expected struct")
         self.assert_malformed(pa.array([good, good], type=ps.FUSED_POSE), "exactly one row")
         self.assert_malformed(pa.array([None], type=ps.FUSED_POSE), "null row")
         nulls = pose(1, [joint(12, [1.0, 2.0, 0.9], sensors=("k1", None))])
@@ -137,10 +137,40 @@ class Wire(unittest.TestCase):
         # The same fields with `set_seq` nullable is another type.
         fields = [ps.FUSED_POSE.field(i) for i in range(ps.FUSED_POSE.num_fields)]
         fields[0] = fields[0].with_nullable(True)
-        self.assert_malformed(pa.array([good], type=pa.struct(fields)), "expected fused_pose")
-        # A FixedSizeList of 2 is not a point.
-        short = pa.struct([pa.field("x", pa.list_(pa.float64(), 2))])
-        self.assert_malformed(pa.array([{"x": [1.0, 2.0]}], type=short), "expected fused_pose")
+        self.assert_malformed(
+            pa.array([good], type=pa.struct(fields)),
+            "fused_pose.set_seq: nullable True, expected False",
+        )
+        # Another message, e.g. an aligned_set, names its fields.
+        other = pa.struct([pa.field("seq", pa.uint64(), nullable=False)])
+        self.assert_malformed(
+            pa.array([{"seq": 1}], type=other), "fused_pose: fields ['seq'], expected ['set_seq'"
+        )
+
+    def test_type_difference_names_the_nested_field(self):
+        def fused_pose_with_point(point):
+            joint = pa.struct(
+                [point if f.name == "position_in_world_m" else f for f in ps._fields(ps.FUSED_JOINT)]
+            )
+            return pa.struct(
+                [
+                    pa.field("joints", pa.list_(ps._item(joint)), nullable=False)
+                    if f.name == "joints"
+                    else f
+                    for f in ps._fields(ps.FUSED_POSE)
+                ]
+            )
+
+        short = pa.field("position_in_world_m", pa.list_(ps._item(pa.float64()), 2), nullable=False)
+        self.assertEqual(
+            ps.type_difference(fused_pose_with_point(short), ps.FUSED_POSE),
+            "fused_pose.joints.position_in_world_m: 2 values, expected 3",
+        )
+        f32 = pa.field("position_in_world_m", pa.list_(ps._item(pa.float32()), 3), nullable=False)
+        self.assertEqual(
+            ps.type_difference(fused_pose_with_point(f32), ps.FUSED_POSE),
+            "fused_pose.joints.position_in_world_m: float, expected double",
+        )
 
 
 class Config(unittest.TestCase):
