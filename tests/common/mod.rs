@@ -216,10 +216,26 @@ pub fn localise(graph: &str, dir: &Path) -> String {
     text
 }
 
-/// Starts `graph` headless for `run_for` (`"12s"`). The simulated sources end the run
-/// themselves (`STOP_AFTER_SECS`, which every node inherits from `dora run`'s environment
-/// unless its `env:` sets it), so the graph shuts down source first and every set reaches the
-/// recorder; `--stop-after` is only a safety net 30 s later.
+/// `dora run graph.yml` in `dir` for `run_for` (`"12s"`), output captured: the simulated
+/// sources end the run themselves (`STOP_AFTER_SECS`, which every node inherits from `dora
+/// run`'s environment unless its `env:` sets it), so the graph shuts down source first and
+/// every set reaches the recorder; `--stop-after` is only a safety net 30 s later.
+pub fn dora_run(dir: &Path, run_for: &str) -> Command {
+    let secs: u64 = run_for
+        .trim_end_matches('s')
+        .parse()
+        .expect("run_for is whole seconds like \"12s\"");
+    let mut cmd = Command::new(dora());
+    plain_env(&mut cmd)
+        .current_dir(dir)
+        .env("STOP_AFTER_SECS", secs.to_string())
+        .args(["run", "graph.yml", "--stop-after", &format!("{}s", secs + 30)])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    cmd
+}
+
+/// Starts `graph` headless in a fresh folder for `run_for` ([`dora_run`]).
 pub fn spawn_graph(name: &str, graph: &str, run_for: &str) -> (Child, PathBuf) {
     build_nodes();
     let dir = workspace().join("target/dataflow-tests").join(name);
@@ -227,21 +243,7 @@ pub fn spawn_graph(name: &str, graph: &str, run_for: &str) -> (Child, PathBuf) {
     std::fs::create_dir_all(&dir).expect("creating the test folder");
     let yml = dir.join("graph.yml");
     std::fs::write(&yml, localise(graph, &dir)).expect("writing the graph");
-    let secs: u64 = run_for
-        .trim_end_matches('s')
-        .parse()
-        .expect("run_for is whole seconds like \"12s\"");
-    let child = plain_env(&mut Command::new(dora()))
-        .current_dir(&dir)
-        .env("STOP_AFTER_SECS", secs.to_string())
-        .args([
-            "run",
-            "graph.yml",
-            "--stop-after",
-            &format!("{}s", secs + 30),
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
+    let child = dora_run(&dir, run_for)
         .spawn()
         .expect("starting `dora run` (is the dora CLI installed? scripts/test.sh installs it)");
     (child, dir)
