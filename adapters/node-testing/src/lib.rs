@@ -10,11 +10,12 @@
 // Test scaffolding: a set-up that cannot be built is a broken test, so it panics.
 #![allow(clippy::expect_used)]
 
+use dora_node_api::arrow_v59::array::ArrayRef;
 use dora_node_api::integration_testing::{
-    IntegrationTestInput, OutputReceiver, TestingInput, TestingOptions, TestingOutput,
+    IntegrationTestInput, OutputJson, OutputReceiver, TestingInput, TestingOptions, TestingOutput,
     output_channel,
 };
-use dora_node_api::{DoraNode, EventStream, serde_json};
+use dora_node_api::{DoraNode, Event, EventStream, serde_json};
 
 /// An env lookup over `key = value` pairs, standing in for the process environment so tests
 /// never touch it. When a key appears twice, the first pair wins (a test can put a bad value
@@ -87,4 +88,93 @@ pub fn arrow_file(
     writer.write(&batch).expect("writing the batch");
     writer.finish().expect("finishing the arrow file");
     path
+}
+
+/// The outputs a node sent on `id`, in order, as the Arrow arrays it sent, so a test can
+/// decode them with the message's own `decode` and check values, not just a count.
+///
+/// dora's testing tier writes each output as JSON (`data` plus its `data_type`); the only
+/// reader of that form is dora's own, the one that replays recorded inputs. So the outputs
+/// are replayed, as inputs, into a throwaway testing node and read back from its events:
+/// dora decodes them with the declared type (floats bit for bit, nulls kept), and no second
+/// JSON-to-Arrow reader is needed here.
+///
+/// # Panics
+/// If an output on `id` lacks `data` or `data_type`, or dora cannot read it back.
+#[must_use]
+pub fn output_arrays(outputs: &[OutputJson], id: &str) -> Vec<ArrayRef> {
+    let mut events: Vec<serde_json::Value> = outputs
+        .iter()
+        .filter(|o| o.get("id").and_then(serde_json::Value::as_str) == Some(id))
+        .map(|o| {
+            serde_json::json!({
+                "time_offset_secs": 0.0,
+                "type": "Input",
+                "id": id,
+                "data": o.get("data").expect("an output with data"),
+                "data_type": o.get("data_type").expect("an output with its data type"),
+            })
+        })
+        .collect();
+    let expected = events.len();
+    events.push(serde_json::json!({"time_offset_secs": 0.0, "type": "Stop"}));
+    let (_node, mut stream, _rx) = init_node(
+        serde_json::json!({"id": "replay", "events": events}),
+        TestingOptions::default(),
+    );
+    let mut arrays = Vec::with_capacity(expected);
+    while let Some(event) = stream.recv() {
+        if let Event::Input { data, .. } = event {
+            arrays.push(data.as_array().clone());
+        }
+    }
+    assert_eq!(arrays.len(), expected, "every output on {id} read back");
+    arrays
+}
+
+/// How many outputs went out on `id`.
+#[must_use]
+pub fn output_count(outputs: &[OutputJson], id: &str) -> usize {
+    outputs
+        .iter()
+        .filter(|o| o.get("id").and_then(serde_json::Value::as_str) == Some(id))
+        .count()
+}
+
+/// A fresh, empty scratch folder for one test (`<tmp>/trigait-<name>-<pid>`), so tests
+/// running in parallel, and reruns, do not see each other's files.
+///
+/// # Panics
+/// If the folder cannot be made.
+#[must_use]
+pub fn scratch_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("trigait-{name}-{}", std::process::id()));
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir).expect("clearing the scratch folder");
+    }
+    std::fs::create_dir_all(&dir).expect("creating the scratch folder");
+    dir
+}
+
+/// One testing event delivering `array` on input `input` at `time_offset_secs`, its data
+/// written to `<dir>/<name>.arrow` ([`arrow_file`]); `name` must be unique within `dir`.
+///
+/// # Panics
+/// If the file cannot be written.
+#[must_use]
+pub fn input_event(
+    dir: &std::path::Path,
+    name: &str,
+    time_offset_secs: f64,
+    input: &str,
+    array: ArrayRef,
+) -> serde_json::Value {
+    let path = arrow_file(dir, name, array);
+    serde_json::json!({
+        "time_offset_secs": time_offset_secs,
+        "type": "Input",
+        "id": input,
+        "path": path,
+        "column": "msg",
+    })
 }
