@@ -315,7 +315,9 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
         // Only instants inside both sensors' frames are resampled between two of them.
         let around = |id: &'static str| {
             let seqs: Vec<u64> = (0..7).collect();
-            let after = seqs.iter().position(|s| placed[&(id, *s)].0 > set.stamp_nanos)?;
+            let after = seqs
+                .iter()
+                .position(|s| placed[&(id, *s)].0 > set.stamp_nanos)?;
             Some((seqs[after.checked_sub(1)?], seqs[after]))
         };
         let (Some(a1), Some(a2)) = (around("k1"), around("k2")) else {
@@ -360,6 +362,10 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
         }
         checked += 1;
     }
-    assert!(checked >= 4, "{checked} sets between frames of {}", sets.len());
+    assert!(
+        checked >= 4,
+        "{checked} sets between frames of {}",
+        sets.len()
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
