@@ -110,7 +110,7 @@ fn frames_are_analysed_and_bad_ones_counted() {
     let sd = acc.temporal_sd_mm.unwrap();
     assert!((sd - expected).abs() < 0.1 * expected, "{sd}");
 
-    let dir = std::env::temp_dir().join("trigait-depth-metrics-node-test");
+    let dir = scratch_dir("depth-metrics-node-test");
     let path = dir.join("depth-metrics.json");
     sensors.write_json(&path).unwrap();
     let v: serde_json::Value =

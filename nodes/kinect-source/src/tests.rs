@@ -165,9 +165,7 @@ fn replay_both_formats() {
 /// malformed request is counted and skipped.
 #[test]
 fn event_loop_answers_own_ntp_requests() {
-    let dir =
-        std::env::temp_dir().join(format!("trigait-kinect-source-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("kinect-source-test");
     let mine = arrow_file(
         &dir,
         "mine",
@@ -203,12 +201,7 @@ fn event_loop_answers_own_ntp_requests() {
     assert_eq!(counters.malformed, 1);
     assert!(counters.frames_sent >= 5, "{counters:?}");
     let outputs = drain_outputs(&mut rx);
-    let count = |id: &str| {
-        outputs
-            .iter()
-            .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some(id))
-            .count()
-    };
+    let count = |id: &str| output_count(&outputs, id);
     assert_eq!(count("ntp_reply"), 1);
     assert_eq!(count("frame") as u64, counters.frames_sent);
     assert!(count("ground_truth") >= 4);

@@ -109,11 +109,7 @@ fn ticks_request_ntp_and_bad_input_is_skipped() {
     assert_eq!(counters.ntp_requests, 3);
     assert_eq!(counters.sets_sent, 0, "no frames, no sets");
     let outputs = drain_outputs(&mut rx);
-    let requests = outputs
-        .iter()
-        .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some("ntp_request"))
-        .count();
-    assert_eq!(requests, 3);
+    assert_eq!(output_count(&outputs, "ntp_request"), 3);
 }
 
 /// NTP routing comes from the declared outputs: none per sensor → broadcast; one per sensor →
