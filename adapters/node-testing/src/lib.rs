@@ -3,8 +3,10 @@
 //! Every node reads its `env:` block through `Config::from_lookup(impl Fn(&str) ->
 //! Option<String>)`, checks that its errors name node, key and value by searching the whole
 //! `eyre` chain, and drives `run` through dora's `DoraNode::init_testing` (testing tier (b) in
-//! dora's `integration_testing.rs`). These helpers were copied into each node's `tests.rs`;
-//! one copy keeps the nodes' tests the same shape and their lookups the same semantics.
+//! dora's `integration_testing.rs`): messages go in as Arrow files ([`input_event`]), and
+//! what the node sent comes back as the Arrow arrays it sent ([`output_arrays`]), so a loop
+//! test decodes its outputs with the message's own `decode` and checks values. One copy keeps
+//! the nodes' tests the same shape and their lookups the same semantics.
 
 #![warn(missing_docs)]
 // Test scaffolding: a set-up that cannot be built is a broken test, so it panics.
