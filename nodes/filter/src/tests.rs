@@ -181,7 +181,7 @@ fn malformed_pose_is_skipped() {
 /// The loop's happy path, checked against the closed form: with `ONE_EURO_BETA=0` the
 /// One-Euro filter is a first-order low-pass of fixed cut-off f_c, so after a 10 cm step of
 /// the knee at 30 Hz its output is 0.1·(1 − (1 − α)ᵐ) m, m poses after the step, with
-/// α = 1/(1 + τ/Δt) and τ = 1/(2π f_c) (Casiez et al. 2012, eq. 1–2). Each `fused_pose` in
+/// α = 1/(1 + τ/Δt) and τ = 1/(2π f_c) (Casiez et al. 2012). Each `fused_pose` in
 /// comes out once, in order, with its seq, stamp, covariance, sensors, diagnostics, skipped
 /// joints and missing sensors as they came in; the still hip stays where it is.
 #[test]
