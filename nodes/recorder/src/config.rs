@@ -14,8 +14,8 @@
 
 use std::path::PathBuf;
 
-use eyre::{bail, eyre};
-use trigait_node_config::{env_number_where, env_value};
+use eyre::bail;
+use trigait_node_config::{env_number_where, env_rig, env_value};
 use trigait_rig::Rig;
 
 /// Env var: output directory.
@@ -24,8 +24,6 @@ pub const OUTPUT_DIR: &str = "OUTPUT_DIR";
 pub const RRD: &str = "RRD";
 /// Env var: viewer url.
 pub const RERUN_CONNECT: &str = "RERUN_CONNECT";
-/// Env var: rig.
-pub const RIG: &str = "RIG";
 /// Env var: ring capacity.
 pub const RING_CAPACITY: &str = "RING_CAPACITY";
 /// Env var: warm-up length.
@@ -74,9 +72,7 @@ impl Config {
                 "{NODE}: {RERUN_CONNECT}={url:?} is invalid: expected a rerun gRPC proxy url like rerun+http://127.0.0.1:9876/proxy"
             );
         }
-        let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
-        let rig =
-            Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
+        let rig = env_rig(NODE, &lookup)?;
         let ring_capacity = env_value(
             NODE,
             &lookup,
