@@ -229,7 +229,12 @@ pub fn dora_run(dir: &Path, run_for: &str) -> Command {
     plain_env(&mut cmd)
         .current_dir(dir)
         .env("STOP_AFTER_SECS", secs.to_string())
-        .args(["run", "graph.yml", "--stop-after", &format!("{}s", secs + 30)])
+        .args([
+            "run",
+            "graph.yml",
+            "--stop-after",
+            &format!("{}s", secs + 30),
+        ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     cmd

@@ -283,6 +283,11 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
         assert_eq!((t.sensor_id.as_str(), t.seq), (id, *seq));
         assert_eq!(t.local_stamp_nanos, capture + offset);
         assert_eq!(t.true_stamp_nanos, Some(*capture));
+        // The frame's joints travel with it, for the recorder's per-sensor view.
+        assert_eq!(t.joints.len(), 2, "{t:?}");
+        assert_eq!(t.joints[0].joint, Joint::KneeLeft);
+        assert_eq!(t.joints[0].position_in_kinect, knee(*k, *capture));
+        assert_eq!(t.joints[1].state, TrackingState::Inferred);
         let (server, bound) = (t.server_stamp_nanos.unwrap(), t.uncertainty_nanos.unwrap());
         assert!(
             (server - capture).abs() <= bound && bound < 20 * MS,
