@@ -190,7 +190,8 @@ impl Rrd {
     }
 }
 
-/// The graph text with node paths, output folder and data paths made absolute for `dir`.
+/// The graph text with node paths, output folder and data paths made absolute for `dir`, and
+/// without its build lines (the binaries are built once, by [`build_nodes`]).
 pub fn localise(graph: &str, dir: &Path) -> String {
     let ws = workspace();
     let ws = ws.display();
@@ -204,8 +205,11 @@ pub fn localise(graph: &str, dir: &Path) -> String {
             &format!("path: {ws}/target/release/"),
         )
         .replace("../../shared/data", &format!("{ws}/../shared/data"));
+    // [`build_nodes`] ran the graphs' one build line already; left in, dora would run it again
+    // for every node, which on a loaded 2-core machine took half a minute per graph.
     let lines: Vec<String> = text
         .lines()
+        .filter(|l| !l.trim_start().starts_with("build: cargo build"))
         .map(|l| match l.find("OUTPUT_DIR:") {
             Some(i) => format!("{}OUTPUT_DIR: {}", &l[..i], dir.join("out").display()),
             None => l.to_owned(),
