@@ -201,6 +201,29 @@ fn mm(v: f64) -> String {
     }
 }
 
+/// The sentence under the table when the range-only methods print identical rows, which
+/// would otherwise look like a bug: with three sensors, three ranges fix the three unknowns
+/// exactly, so every range method finds the same point (thesis §4.2; its §5.2 results agree).
+fn range_methods_agree(r: &Report) -> Option<String> {
+    let range: Vec<_> = r
+        .methods
+        .iter()
+        .filter(|m| ["geometric", "linear", "nls"].contains(&m.method.as_str()))
+        .collect();
+    let first = range.first()?;
+    let same = range.len() > 1
+        && range.iter().all(|m| {
+            (m.rmse_m - first.rmse_m).abs() < 1e-7 && (m.p95_m - first.p95_m).abs() < 1e-7
+        });
+    (same && r.sensors.len() == 3).then(|| {
+        let names: Vec<&str> = range.iter().map(|m| m.method.as_str()).collect();
+        format!(
+            "({} agree: with 3 sensors the 3 ranges fix the 3 coordinates exactly, so every range-only method finds the same point.)",
+            names.join(", ")
+        )
+    })
+}
+
 /// The human-readable tables.
 fn render(r: &Report) -> String {
     let mut out = String::new();
@@ -269,6 +292,9 @@ fn render(r: &Report) -> String {
                 format!("{:.0}", -m.gain_over_linear * 100.0)
             }
         );
+    }
+    if let Some(note) = range_methods_agree(r) {
+        let _ = writeln!(out, "{note}");
     }
     let _ = writeln!(out, "\nRMSE per joint, mm");
     let _ = write!(out, "{:<15}", "joint");
