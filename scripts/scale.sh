@@ -17,7 +17,8 @@ for n in $COUNTS; do
   dir="$ROOT/target/scale/$n"
   rm -rf "$dir"; mkdir -p "$dir"
   python3 scripts/graph.py --sensors "$n" --rig "ring-$n" --root "$ROOT/" --out-dir "$dir/out" > "$dir/graph.yml"
-  (cd "$dir" && dora run graph.yml --stop-after "${SECS}s" > "$dir/dora-run.log" 2>&1) || {
+  # The sources end the run (STOP_AFTER_SECS), so every set reaches the recorder (dataflows/README.md).
+  (cd "$dir" && STOP_AFTER_SECS="$SECS" dora run graph.yml --stop-after "$((SECS + 30))s" > "$dir/dora-run.log" 2>&1) || {
     echo "dora run failed for $n sensors; see $dir/dora-run.log"; exit 1; }
   python3 - "$dir/out/summary.json" "$n" <<'PY'
 import json, sys
