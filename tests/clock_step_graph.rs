@@ -130,9 +130,14 @@ fn one_second_step_on_k2_resyncs_within_five_exchanges() {
         span <= exchanges as f64 * NTP_INTERVAL_SECS + 0.05,
         "wrong for {span} s, but resynchronised after {exchanges} exchanges: {k2:#}"
     );
+    // Unstepped sensors: as in a run without a step (0 in six runs here; `tests/dataflow.rs`
+    // allows 1 % over 1 ms, a congested exchange on a loaded machine).
     for id in ["k1", "k3"] {
         let n = &ntp[id];
-        assert_eq!(n["frames_over_1ms"].as_u64(), Some(0), "{id}: {n:#}");
+        assert!(
+            n["frames_over_1ms"].as_u64().unwrap() <= 3,
+            "{id} disturbed: {n:#}"
+        );
         assert!(f(&n["frames_checked"]) > 250.0, "{id}: {n:#}");
     }
     let rmse = f(&s["rmse_all_m"]);
