@@ -95,7 +95,9 @@ def main() -> int:
     )
     # One NTP request output per source: a request reaches only its sensor (see the sync node).
     sync_outputs = "".join(f"      - ntp_request_{s}\n" for s in ids)
-    rec_inputs = "".join(f"      frame_{s}:\n        source: {s}/frame\n        queue_size: 100\n" for s in ids)
+    # The recorder gets every raw frame from sync (inside frame_timing), so its inputs do not
+    # grow with the sensors: a sensor is its source block and its sync lines.
+    rec_inputs = ""
     if args.backend == "sim":
         rec_inputs += f"      ground_truth:\n        source: {ids[0]}/ground_truth\n        queue_size: 1000\n"
     filter_node = ""

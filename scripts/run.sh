@@ -15,8 +15,13 @@ export PATH="$PWD/.venv/bin:$PATH"
 echo "==> building the nodes (release)"
 cargo build --release --workspace --all-targets
 rm -f out/summary.json
-echo "==> dora run dataflow.yml --stop-after ${STOP_AFTER:-15s}"
-dora run dataflow.yml --stop-after "${STOP_AFTER:-15s}"
+# The sources end the run after STOP_AFTER (their STOP_AFTER_SECS, inherited from this
+# environment), so the graph shuts down source first and every set reaches the recorder;
+# --stop-after is only a safety net.
+secs="${STOP_AFTER:-15s}"
+secs="${secs%s}"
+echo "==> dora run dataflow.yml (${secs} s)"
+STOP_AFTER_SECS="$secs" dora run dataflow.yml --stop-after "$((secs + 30))s"
 
 python3 - out/summary.json <<'PY'
 import json, sys

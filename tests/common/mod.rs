@@ -106,6 +106,26 @@ impl Run {
             .unwrap_or_else(|e| panic!("{}: {e}\n--- log ---\n{}", path.display(), self.log))
     }
 
+    /// Every set `sync` sent reached the recorder, the last ones at shutdown included: the
+    /// count in sync's closing log line (`sets sent N`) is the recorder's `sets_fused` (a graph
+    /// without `sync` or without a summary is not checked).
+    pub fn assert_sets_delivered(&self) {
+        let Some(sent) = sync_sets_sent(&self.log) else {
+            return;
+        };
+        if !self.out_dir.join("summary.json").exists() {
+            return;
+        }
+        let s = self.summary();
+        assert_eq!(
+            s["sets_fused"].as_u64(),
+            Some(sent),
+            "sync sent {sent} sets, the recorder recorded {}:\n{}",
+            s["sets_fused"],
+            self.log
+        );
+    }
+
     /// No set is lost: `summary.json` counts no gap in the set sequence, every pose with a
     /// fused joint is an instant of `trajectory.csv`, and dora reported no pose or timing
     /// dropped at the recorder. The result edges of every graph
@@ -113,6 +133,7 @@ impl Run {
     /// lossy direct path. Raw frames and truth may be dropped on theirs; that is printed, not
     /// fatal.
     pub fn assert_no_sets_lost(&self) {
+        self.assert_sets_delivered();
         let s = self.summary();
         assert_eq!(s["dropped_sets"].as_u64(), Some(0), "summary: {s:#}");
         let clip = self.trajectory();
@@ -195,16 +216,30 @@ pub fn localise(graph: &str, dir: &Path) -> String {
     text
 }
 
-pub fn spawn_graph(name: &str, graph: &str, stop_after: &str) -> (Child, PathBuf) {
+/// Starts `graph` headless for `run_for` (`"12s"`). The simulated sources end the run
+/// themselves (`STOP_AFTER_SECS`, which every node inherits from `dora run`'s environment
+/// unless its `env:` sets it), so the graph shuts down source first and every set reaches the
+/// recorder; `--stop-after` is only a safety net 30 s later.
+pub fn spawn_graph(name: &str, graph: &str, run_for: &str) -> (Child, PathBuf) {
     build_nodes();
     let dir = workspace().join("target/dataflow-tests").join(name);
     std::fs::remove_dir_all(&dir).ok();
     std::fs::create_dir_all(&dir).expect("creating the test folder");
     let yml = dir.join("graph.yml");
     std::fs::write(&yml, localise(graph, &dir)).expect("writing the graph");
+    let secs: u64 = run_for
+        .trim_end_matches('s')
+        .parse()
+        .expect("run_for is whole seconds like \"12s\"");
     let child = plain_env(&mut Command::new(dora()))
         .current_dir(&dir)
-        .args(["run", "graph.yml", "--stop-after", stop_after])
+        .env("STOP_AFTER_SECS", secs.to_string())
+        .args([
+            "run",
+            "graph.yml",
+            "--stop-after",
+            &format!("{}s", secs + 30),
+        ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -246,6 +281,7 @@ pub fn run_graph(file: &str) -> Run {
     let (child, dir) = spawn_graph(&name, &graph, stop_after);
     let run = finish(child, dir);
     assert!(run.success, "dora run {file} failed:\n{}", run.log);
+    run.assert_sets_delivered();
     cache
         .lock()
         .unwrap_or_else(|e| e.into_inner())
@@ -253,8 +289,66 @@ pub fn run_graph(file: &str) -> Run {
     run
 }
 
+/// The `N` of sync's closing log line `… sets sent N (…`, if the log has one.
+pub fn sync_sets_sent(log: &str) -> Option<u64> {
+    let rest = &log[log.rfind("sets sent ")? + "sets sent ".len()..];
+    rest.split(|c: char| !c.is_ascii_digit())
+        .next()?
+        .parse()
+        .ok()
+}
+
 pub fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
+}
+
+/// The pid of the process of graph run `dir` (dora's working directory for its nodes) whose
+/// command line contains `binary` and, if given, whose environment holds `env` (`SENSOR_ID=k2`);
+/// waits for it up to a minute.
+pub fn node_pid(dir: &Path, binary: &str, env: Option<&str>) -> u32 {
+    let start = std::time::Instant::now();
+    loop {
+        let found = pids().into_iter().find(|pid| {
+            let cwd = std::fs::read_link(format!("/proc/{pid}/cwd")).unwrap_or_default();
+            let cmd = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+            let environ = std::fs::read(format!("/proc/{pid}/environ")).unwrap_or_default();
+            cwd == dir
+                && String::from_utf8_lossy(&cmd).contains(binary)
+                && env.is_none_or(|env| environ.split(|b| *b == 0).any(|kv| kv == env.as_bytes()))
+        });
+        if let Some(pid) = found {
+            return pid;
+        }
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(60),
+            "no {binary} process ({env:?}) in {}",
+            dir.display()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
+
+/// Waits until the run in `dir` has streamed (its `.rrd` passed 300 kB: poses are being
+/// recorded), up to a minute.
+pub fn wait_until_streaming(dir: &Path) {
+    let start = std::time::Instant::now();
+    let rrd = dir.join("out/trigait.rrd");
+    while std::fs::metadata(&rrd).map_or(0, |m| m.len()) < 300_000 {
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(60),
+            "the graph never streamed"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
+
+/// Sends SIGKILL to `pid`.
+pub fn kill_9(pid: u32) {
+    let status = Command::new("kill")
+        .args(["-9", &pid.to_string()])
+        .status()
+        .expect("running kill");
+    assert!(status.success(), "kill -9 {pid} failed");
 }
 
 pub fn pids() -> Vec<u32> {

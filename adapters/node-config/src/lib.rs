@@ -15,6 +15,10 @@
 
 #![warn(missing_docs)]
 
+mod rig_stamp;
+
+pub use rig_stamp::RigStamp;
+
 use std::str::FromStr;
 
 use eyre::bail;

@@ -21,6 +21,7 @@
 //! | `REPLAY_LOOP` | bool | `true` | start over at the end of the file |
 //! | `GROUND_TRUTH` | bool | `true` for the rig's first sensor | send the simulated ground truth on `ground_truth` (one source per graph, so each instant is sent once) |
 //! | `STOP_AFTER_FRAMES` | integer | none | stop after this many frames (tests: a source dying mid-run) |
+//! | `STOP_AFTER_SECS` | seconds > 0 | none | stop this long after the first frame; when every source of a graph does, the graph ends on its own and every set reaches the recorder (a `dora stop` cannot promise that: nothing sent after a stop is delivered) |
 //! | `DEPTH_RATE_HZ`, `DEPTH_*` | | off | the optional `depth` output: [`crate::depth`] |
 //!
 //! The rig is read and checked here, once (a missing file or a bad YAML stops the node before
@@ -67,6 +68,8 @@ pub const CLOCK_STEP_AT_SECS: &str = "CLOCK_STEP_AT_SECS";
 pub const CLOCK_STEP_MILLIS: &str = "CLOCK_STEP_MILLIS";
 /// Env var: stop after N frames.
 pub const STOP_AFTER_FRAMES: &str = "STOP_AFTER_FRAMES";
+/// Env var: stop this many seconds after the first frame.
+pub const STOP_AFTER_SECS: &str = "STOP_AFTER_SECS";
 /// Env var: whether this simulated source sends the ground truth.
 pub const GROUND_TRUTH: &str = "GROUND_TRUTH";
 
@@ -196,6 +199,8 @@ pub struct Config {
     pub clock_step: Option<ClockStep>,
     /// Stop after this many frames.
     pub stop_after_frames: Option<u64>,
+    /// Stop this long after the first frame, ns.
+    pub stop_after_nanos: Option<i64>,
     /// Send the ground truth (`None`: only the rig's first sensor does).
     pub ground_truth: Option<bool>,
     /// The optional depth output (`None`: off).
@@ -281,6 +286,13 @@ impl Config {
             |_| true,
             "a whole number of frames",
         )?;
+        let stop_after_secs = env_value(
+            NODE,
+            &lookup,
+            STOP_AFTER_SECS,
+            |s: &f64| *s > 0.0 && *s <= 1e6,
+            "seconds between 0 and 1000000",
+        )?;
         Ok(Config {
             sensor_id,
             rig,
@@ -294,6 +306,7 @@ impl Config {
             clock_jitter_nanos: jitter * 1e3,
             clock_step,
             stop_after_frames,
+            stop_after_nanos: stop_after_secs.map(|s| (s * 1e9).round() as i64),
             ground_truth: lookup(GROUND_TRUTH)
                 .is_some()
                 .then(|| env_flag(NODE, &lookup, GROUND_TRUTH, false))

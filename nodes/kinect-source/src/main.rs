@@ -19,6 +19,8 @@ use eyre::Context;
 use tracing::{info, warn};
 use trigait_schema::{GroundTruth, Message, NtpExchange, SkeletonFrameMessage, ports};
 
+use trigait_node_config::RigStamp;
+
 use crate::backend::{Captured, Source, now_nanos, sensor_clock};
 use crate::config::Config;
 
@@ -64,13 +66,29 @@ pub fn run(
         .transpose()?;
     let mut clock = sensor_clock(&config, now_nanos());
     let mut counters = Counters::default();
+    let rig = trigait_rig::Rig::from_spec(&config.rig)
+        .map_err(|e| eyre::eyre!("kinect-source: {}={:?}: {e}", config::RIG, config.rig))?;
+    let stamp = RigStamp::new(&config.sensor_id, &rig);
+    let mut first_frame_nanos = None;
     loop {
         while let Some(due) = source.next_due().filter(|due| *due <= now_nanos()) {
             let Some(captured) = source.capture(due.max(now_nanos()), &mut clock) else {
                 break;
             };
-            send_capture(&mut node, &frame_out, &truth_out, captured)?;
+            send_capture(&mut node, &frame_out, &truth_out, &stamp, captured)?;
             counters.frames_sent += 1;
+            let first = *first_frame_nanos.get_or_insert(due);
+            if config
+                .stop_after_nanos
+                .is_some_and(|run| due - first >= run)
+            {
+                info!(
+                    "stopping after {} frames ({})",
+                    counters.frames_sent,
+                    config::STOP_AFTER_SECS
+                );
+                return Ok(counters);
+            }
             if config.stop_after_frames == Some(counters.frames_sent) {
                 info!(
                     "stopping after {} frames ({})",
@@ -131,9 +149,11 @@ fn send_capture(
     node: &mut DoraNode,
     frame_out: &DataId,
     truth_out: &DataId,
+    stamp: &RigStamp,
     captured: Captured,
 ) -> eyre::Result<()> {
     let mut params = MetadataParameters::default();
+    stamp.insert_into(&mut params);
     params.insert(
         ports::SENT_NANOS.to_owned(),
         Parameter::Integer(now_nanos()),

@@ -1,15 +1,20 @@
 //! What the recorder writes of the fused joints: the thesis-style ring buffer (1000 positions
 //! per joint, thesis §6.4.5) as a whitespace text file like the thesis's, and the whole run as a
 //! motion (CSV, TRC, C3D) through `trigait-motion`, so that the CLI reads it back.
+//!
+//! While the run goes, `trajectory.csv` is appended and `summary.json` rewritten
+//! ([`LiveFiles`], every [`crate::FLUSH_NANOS`]), so a recorder killed mid-run leaves both behind,
+//! up to the last update; at the end every file is written whole.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use eyre::Context;
 use nalgebra::Point3;
 use tracing::warn;
-use trigait_fusion::Trajectory;
+use trigait_fusion::{FrameGrid, Trajectory};
+use trigait_motion::CsvAppender;
 use trigait_schema::FusedPose;
 use trigait_skeleton::Joint;
 
@@ -144,4 +149,91 @@ pub fn write_trajectory(dir: &Path, trajectory: &Trajectory) -> eyre::Result<()>
     trigait_motion::write_trc(&trc, &clip)?;
     trigait_motion::write_c3d(&c3d, &clip)?;
     Ok(())
+}
+
+/// `summary.json` written whole or not at all (a temporary file renamed over it), so a
+/// reader, or a kill in the middle of the write, never meets half a file.
+///
+/// # Errors
+/// When the file cannot be written or renamed.
+pub fn write_summary(dir: &Path, summary: &crate::stats::Summary) -> eyre::Result<PathBuf> {
+    let path = dir.join("summary.json");
+    let tmp = dir.join(".summary.json.partial");
+    let json = serde_json::to_string_pretty(summary).context("serialising the summary")?;
+    std::fs::write(&tmp, json).with_context(|| format!("writing {}", tmp.display()))?;
+    std::fs::rename(&tmp, &path).with_context(|| format!("renaming to {}", path.display()))?;
+    Ok(path)
+}
+
+/// The files kept current while the run goes.
+#[derive(Debug)]
+pub struct LiveFiles {
+    dir: PathBuf,
+    csv: Option<(FrameGrid, CsvAppender)>,
+    warned_new_joint: bool,
+}
+
+impl LiveFiles {
+    /// Starts in `dir`, removing the summary and trajectory files of an earlier run, so that
+    /// none is taken for this run's before this run's first update.
+    ///
+    /// # Errors
+    /// When an old file cannot be removed.
+    pub fn start(dir: &Path) -> eyre::Result<Self> {
+        for name in TRAJECTORY_FILES
+            .iter()
+            .chain(&["summary.json", "trajectory.txt"])
+        {
+            let path = dir.join(name);
+            if path.exists() {
+                std::fs::remove_file(&path)
+                    .with_context(|| format!("removing the earlier run's {}", path.display()))?;
+            }
+        }
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            csv: None,
+            warned_new_joint: false,
+        })
+    }
+
+    /// Appends the frames fused since the last call to `trajectory.csv` and makes them
+    /// durable. The file starts once two poses give the frame rate; its columns are the joints
+    /// fused by then (one fused only later is in the files written at the end).
+    ///
+    /// # Errors
+    /// When the file cannot be written.
+    pub fn update_trajectory(&mut self, trajectory: &Trajectory) -> eyre::Result<()> {
+        if self.csv.is_none() {
+            let Ok(grid) = trajectory.grid() else {
+                return Ok(());
+            };
+            let path = self.dir.join("trajectory.csv");
+            let csv = CsvAppender::create(&path, &grid.joints, grid.rate_hz())?;
+            self.csv = Some((grid, csv));
+        }
+        let Some((grid, csv)) = &mut self.csv else {
+            return Ok(());
+        };
+        let rows = match trajectory.rows_from(grid, csv.frames()) {
+            Ok(rows) => rows,
+            Err(e) => {
+                warn!("trajectory.csv is not extended while the run goes: {e}");
+                return Ok(());
+            }
+        };
+        if !self.warned_new_joint
+            && let Ok(now) = trajectory.grid()
+            && let Some(new) = now.joints.iter().find(|j| !grid.joints.contains(j))
+        {
+            self.warned_new_joint = true;
+            warn!(
+                joint = new.name(),
+                "a joint first fused after trajectory.csv's columns were fixed: it is in the files written at the end"
+            );
+        }
+        csv.append(&rows)?;
+        csv.flush()?;
+        Ok(())
+    }
 }

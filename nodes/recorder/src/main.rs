@@ -1,7 +1,10 @@
 //! `recorder`: the end of the graph. Logs everything to rerun (an `.rrd` file by default, a
-//! live viewer when `RERUN_CONNECT` is set), keeps the thesis ring buffer, and when the graph
-//! stops writes `trajectory.txt` (thesis format), `trajectory.csv`/`.trc`/`.c3d` (the run as a
-//! motion the CLI reads) and `summary.json` into `OUTPUT_DIR`.
+//! live viewer when `RERUN_CONNECT` is set), keeps the thesis ring buffer, and writes into
+//! `OUTPUT_DIR` as it goes: every [`FLUSH_NANOS`] it appends the new frames to
+//! `trajectory.csv`, rewrites `summary.json` (`"complete": false`) and flushes the `.rrd`, so
+//! a recorder killed mid-run loses at most the last half second. When the graph ends it
+//! writes `trajectory.txt` (thesis format), `trajectory.csv`/`.trc`/`.c3d` (the run as a motion
+//! the CLI reads) and the final `summary.json` whole.
 //! Configuration: [`config`]; entity paths: [`viz`].
 
 mod config;
@@ -16,11 +19,19 @@ use dora_node_api::arrow_v59::array::Array;
 use dora_node_api::{DoraNode, Event, EventStream, MetadataParameters, get_integer_param};
 use eyre::Context;
 use tracing::{error, info, warn};
-use trigait_schema::{FrameTiming, FusedPose, GroundTruth, Message, SkeletonFrameMessage, ports};
+use trigait_node_config::RigStamp;
+use trigait_schema::{FrameTiming, FusedPose, GroundTruth, Message, ports};
 
 use crate::config::Config;
-use crate::export::{Ring, write_trajectory};
+use crate::export::{LiveFiles, Ring, write_summary, write_trajectory};
 use crate::stats::{Stats, Summary};
+
+/// How often the files are brought up to date while the run goes, ns: half the second a kill
+/// may lose, the other half for the poses still in the pipeline.
+pub const FLUSH_NANOS: i64 = 500_000_000;
+/// How long a periodic flush of the recording may wait for its sink (a viewer that went
+/// away must not stall the recorder).
+const RRD_FLUSH_TIMEOUT: std::time::Duration = std::time::Duration::from_millis(200);
 
 fn main() -> eyre::Result<()> {
     trigait_node_log::init("recorder");
@@ -45,8 +56,6 @@ pub enum Input<'a> {
     FrameTiming,
     /// [`ports::GROUND_TRUTH`].
     GroundTruth,
-    /// `frame_<sensor>`: a raw frame of one source.
-    Frame(&'a str),
     /// Anything else (logged, ignored).
     Unknown(&'a str),
 }
@@ -59,8 +68,7 @@ impl<'a> Input<'a> {
             ports::FUSED_POSE => Input::FusedPose,
             ports::FRAME_TIMING => Input::FrameTiming,
             ports::GROUND_TRUTH => Input::GroundTruth,
-            _ => ports::sensor_of(id, ports::FRAME_INPUT_PREFIX)
-                .map_or(Input::Unknown(id), Input::Frame),
+            _ => Input::Unknown(id),
         }
     }
 }
@@ -72,6 +80,9 @@ struct Recorder {
     stats: Stats,
     ring: Ring,
     trajectory: trigait_fusion::Trajectory,
+    live: LiveFiles,
+    last_update_nanos: i64,
+    update_errors: u64,
 }
 
 /// The event loop; returns the summary it wrote.
@@ -87,7 +98,11 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
         stats: Stats::new(config.warmup_nanos),
         ring: Ring::new(config.ring_capacity),
         trajectory: trigait_fusion::Trajectory::new(),
+        live: LiveFiles::start(&config.out_dir).context("recorder: OUTPUT_DIR")?,
+        last_update_nanos: now_nanos(),
+        update_errors: 0,
     };
+    let stamp = RigStamp::new("recorder", &config.rig);
     let mut rerun_errors = 0_u64;
     while let Some(event) = events.recv() {
         let now = now_nanos();
@@ -95,14 +110,17 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
             Event::Input { id, metadata, data } => {
                 let array = data.as_array();
                 let array = array.as_ref();
-                let logged = match Input::parse(id.as_str()) {
+                let input = Input::parse(id.as_str());
+                if matches!(input, Input::FusedPose | Input::FrameTiming) {
+                    stamp.check_params(&metadata.parameters)?;
+                }
+                let logged = match input {
                     Input::FusedPose => r.on_pose(&metadata.parameters, array, now),
-                    Input::FrameTiming => r.on_timing(array),
+                    Input::FrameTiming => r.on_timing(array, now),
                     Input::GroundTruth => {
                         r.on_truth(array);
                         Ok(())
                     }
-                    Input::Frame(sensor) => r.on_frame(sensor, array, now),
                     Input::Unknown(id) => {
                         warn!(input = id, "ignoring an unknown input");
                         Ok(())
@@ -115,16 +133,13 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                     }
                 }
             }
-            Event::InputClosed { id } => {
-                if let Input::Frame(sensor) = Input::parse(id.as_str()) {
-                    warn!(%sensor, "source stopped");
-                    r.stats.source_closed(sensor, now);
-                }
-            }
             Event::Error(e) => warn!("event stream error: {e}"),
             _ => {}
         }
         count_drops(&mut r.stats, &mut events);
+        if now - r.last_update_nanos >= FLUSH_NANOS {
+            r.update(&config, now);
+        }
     }
     count_drops(&mut r.stats, &mut events);
     r.finish(&config)
@@ -161,12 +176,18 @@ impl Recorder {
         logged
     }
 
-    /// `sync`'s frame timings: NTP error and clock estimates.
-    fn on_timing(&mut self, array: &dyn Array) -> eyre::Result<()> {
+    /// `sync`'s frame timings: every frame it received with its placement on the server clock
+    /// (NTP error, clock estimates, counts and gaps per source) and its raw joints.
+    fn on_timing(&mut self, array: &dyn Array, now: i64) -> eyre::Result<()> {
         match FrameTiming::decode_many(array) {
             Ok(rows) => {
+                for row in &rows {
+                    self.stats.push_frame(&row.sensor_id, row.seq, now);
+                }
                 self.stats.push_timing(&rows);
-                viz::log_timing(&self.rec, &rows)
+                viz::log_timing(&self.rec, &rows)?;
+                rows.iter()
+                    .try_for_each(|row| viz::log_raw(&self.rec, row, now))
             }
             Err(e) => {
                 self.stats.malformed += 1;
@@ -187,24 +208,38 @@ impl Recorder {
         }
     }
 
-    /// A raw frame of `sensor`: counted for gaps and losses, logged.
-    fn on_frame(&mut self, sensor: &str, array: &dyn Array, now: i64) -> eyre::Result<()> {
-        match SkeletonFrameMessage::decode(array) {
-            Ok(m) => {
-                self.stats.push_frame(sensor, m.frame.seq, now);
-                viz::log_raw(&self.rec, &m.frame, now)
+    /// Brings the files up to date: new frames appended to `trajectory.csv`, `summary.json`
+    /// of the run so far, the recording flushed. A failure is logged (the first, then
+    /// counted) and the run goes on; the final write reports it again.
+    fn update(&mut self, config: &Config, now: i64) {
+        self.last_update_nanos = now;
+        let summary = self.stats.summary(now, false);
+        let updated = self
+            .live
+            .update_trajectory(&self.trajectory)
+            .and_then(|()| write_summary(&config.out_dir, &summary).map(|_| ()));
+        if let Err(e) = updated {
+            self.update_errors += 1;
+            if self.update_errors == 1 {
+                error!(
+                    "recorder: updating the files while the run goes failed (further failures counted): {e:#}"
+                );
             }
-            Err(e) => {
-                self.stats.malformed += 1;
-                warn!(%sensor, "skipping a malformed frame: {e}");
-                Ok(())
-            }
+        }
+        if let Err(e) = self.rec.flush_with_timeout(RRD_FLUSH_TIMEOUT) {
+            warn!("flushing the recording: {e}");
         }
     }
 
-    /// Writes the exports and `summary.json`, flushes the recording.
+    /// Writes the exports and the final `summary.json`, flushes the recording.
     fn finish(mut self, config: &Config) -> eyre::Result<Summary> {
-        let mut summary = self.stats.summary(now_nanos());
+        if self.update_errors > 1 {
+            warn!(
+                "{} updates of the files while the run went failed",
+                self.update_errors
+            );
+        }
+        let mut summary = self.stats.summary(now_nanos(), true);
         let (gait_report, gait_logged) = self.gait.finish(&self.rec);
         summary.gait = Some(gait_report);
         if let Err(e) = gait_logged {
@@ -215,11 +250,7 @@ impl Recorder {
             .context("recorder: writing the thesis text export")?;
         write_trajectory(&config.out_dir, &self.trajectory)
             .context("recorder: writing the trajectory files")?;
-        let path = config.out_dir.join("summary.json");
-        let json =
-            serde_json::to_string_pretty(&summary).context("recorder: serialising the summary")?;
-        std::fs::write(&path, json)
-            .with_context(|| format!("recorder: writing {}", path.display()))?;
+        let path = write_summary(&config.out_dir, &summary).context("recorder")?;
         self.rec.flush_blocking().ok();
         drop(self.rec);
         info!(

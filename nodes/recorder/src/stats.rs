@@ -22,6 +22,7 @@ pub const GAP_NANOS: i64 = 150_000_000;
 pub struct Stats {
     warmup_nanos: i64,
     first_pose_nanos: Option<i64>,
+    pose_stamps_nanos: Option<(i64, i64)>,
     warmup_poses: u64,
     warmup_latency_nanos: Vec<i64>,
     truth: TruthTrack,
@@ -73,7 +74,6 @@ struct SensorFrames {
     seq_gaps: u64,
     last_arrival_nanos: Option<i64>,
     gaps: Vec<Gap>,
-    closed_at_nanos: Option<i64>,
 }
 
 /// A stretch without frames from one source.
@@ -92,10 +92,20 @@ pub struct Gap {
 /// `summary.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct Summary {
+    /// Whether the run ended and this is its final summary; `false` in the summary rewritten
+    /// as the run goes (what a killed recorder leaves behind).
+    pub complete: bool,
+    /// When this summary was written, ns since the epoch.
+    pub written_at_nanos: i64,
+    /// Fusion instant of the first pose recorded, server clock, ns since the epoch.
+    pub first_pose_stamp_nanos: Option<i64>,
+    /// Fusion instant of the newest pose recorded, server clock, ns since the epoch.
+    pub last_pose_stamp_nanos: Option<i64>,
     /// Raw frames received per source.
     pub frames_in: BTreeMap<String, u64>,
     /// Frames a source sent that never reached the recorder (gaps in its frame sequence
-    /// numbers, counted from 0). Measured at the recorder's input; `sync` has its own.
+    /// numbers, counted from 0), as `sync` saw them: it forwards every frame it receives in
+    /// `frame_timing`.
     pub frames_lost: BTreeMap<String, u64>,
     /// Fused poses received.
     pub sets_fused: u64,
@@ -198,6 +208,7 @@ impl Stats {
         Self {
             warmup_nanos,
             first_pose_nanos: None,
+            pose_stamps_nanos: None,
             warmup_poses: 0,
             warmup_latency_nanos: Vec::new(),
             truth: TruthTrack::new(TRUTH_HORIZON_NANOS, TRUTH_MAX_SPAN_NANOS),
@@ -245,6 +256,10 @@ impl Stats {
     /// `sync` attached.
     pub fn push_pose(&mut self, pose: FusedPose, now_nanos: i64, trigger_sent_nanos: Option<i64>) {
         self.sets += 1;
+        let stamp = pose.stamp_nanos;
+        let (first, last) = self.pose_stamps_nanos.get_or_insert((stamp, stamp));
+        *first = (*first).min(stamp);
+        *last = (*last).max(stamp);
         match self.last_seq {
             // Sync numbers its sets from 0: a first pose with seq k means k sets never came.
             None => self.dropped_sets += pose.set_seq,
@@ -362,23 +377,16 @@ impl Stats {
         f.last_arrival_nanos = Some(now_nanos);
     }
 
-    /// The source's frame input closed (it stopped or was killed).
-    pub fn source_closed(&mut self, sensor: &str, now_nanos: i64) {
-        self.frames
-            .entry(sensor.to_owned())
-            .or_default()
-            .closed_at_nanos = Some(now_nanos);
-    }
-
-    /// The summary at `end_nanos`.
+    /// The summary at `end_nanos`: the final one (`at_end`: every pose scored, whether its
+    /// ground truth came or not), or one of the run so far, rewritten as the run goes (poses
+    /// whose ground truth has not come yet wait for the next).
     #[must_use]
-    pub fn summary(&mut self, end_nanos: i64) -> Summary {
-        self.score_pending(true);
+    pub fn summary(&mut self, end_nanos: i64, at_end: bool) -> Summary {
+        self.score_pending(at_end);
         let mut gaps = Vec::new();
         for (sensor, f) in &self.frames {
             gaps.extend(f.gaps.iter().cloned());
             if let Some(last) = f.last_arrival_nanos
-                && (f.closed_at_nanos.is_some() || end_nanos - last > GAP_NANOS)
                 && end_nanos - last > GAP_NANOS
             {
                 gaps.push(Gap {
@@ -390,6 +398,10 @@ impl Stats {
             }
         }
         Summary {
+            complete: at_end,
+            written_at_nanos: end_nanos,
+            first_pose_stamp_nanos: self.pose_stamps_nanos.map(|(first, _)| first),
+            last_pose_stamp_nanos: self.pose_stamps_nanos.map(|(_, last)| last),
             frames_in: self
                 .frames
                 .iter()

@@ -97,7 +97,10 @@ fn repeated_truth_counts_once() {
     for stats in [&mut one, &mut many] {
         stats.push_pose(pose(0, 15_000_000, 0.045), 20_000_000, None);
     }
-    let (a, b) = (one.summary(30_000_000), many.summary(30_000_000));
+    let (a, b) = (
+        one.summary(30_000_000, true),
+        many.summary(30_000_000, true),
+    );
     assert_eq!(a.truth_samples, b.truth_samples);
     assert_eq!(a.rmse_all_m, b.rmse_all_m);
     assert!(
@@ -134,6 +137,7 @@ fn summary_scores_and_counts() {
             offset_nanos: None,
             drift_ppm: None,
             true_stamp_nanos: Some(0),
+            joints: Vec::new(),
         },
         FrameTiming {
             sensor_id: "k1".into(),
@@ -144,6 +148,7 @@ fn summary_scores_and_counts() {
             offset_nanos: Some(5_000_000),
             drift_ppm: Some(10.0),
             true_stamp_nanos: Some(1_000_000_000),
+            joints: Vec::new(),
         },
         FrameTiming {
             sensor_id: "k1".into(),
@@ -154,13 +159,14 @@ fn summary_scores_and_counts() {
             offset_nanos: Some(5_000_000),
             drift_ppm: Some(10.0),
             true_stamp_nanos: Some(2_000_000_000),
+            joints: Vec::new(),
         },
     ]);
     // Frames 2 and 3 of k1 never arrive.
     for (seq, t) in [(0, 0), (1, 33_000_000), (4, 400_000_000)] {
         stats.push_frame("k1", seq, t);
     }
-    let s = stats.summary(1_000_000_000);
+    let s = stats.summary(1_000_000_000, true);
     assert_eq!((s.warmup.poses, s.warmup.latency_ms.count), (0, 0));
     assert_eq!(s.sets_fused, 3);
     assert_eq!(s.dropped_sets, 1);
@@ -291,7 +297,7 @@ fn warmup_latency_is_reported_apart() {
     for (seq, at) in [(3, 1200), (4, 1300)] {
         stats.push_pose(pose(seq, at * ms, 0.0), (at + 3) * ms, Some(at * ms));
     }
-    let s = stats.summary(2_000 * ms);
+    let s = stats.summary(2_000 * ms, true);
     assert_eq!(s.warmup.poses, 2);
     assert_eq!(s.warmup.latency_ms.count, 2);
     assert!((s.warmup.latency_ms.max - 120.0).abs() < 1e-9);

@@ -16,7 +16,7 @@ use rerun::RecordingStream;
 use trigait_kinect::Intrinsics;
 use trigait_rig::Rig;
 use trigait_schema::{FrameTiming, FusedPose};
-use trigait_skeleton::{Joint, SkeletonFrame};
+use trigait_skeleton::Joint;
 
 use crate::config::Config;
 
@@ -222,9 +222,9 @@ pub fn log_pose(
 }
 
 /// One raw frame, drawn in its sensor's camera frame at `now_nanos`.
-pub fn log_raw(rec: &RecordingStream, frame: &SkeletonFrame, now_nanos: i64) -> eyre::Result<()> {
+pub fn log_raw(rec: &RecordingStream, frame: &FrameTiming, now_nanos: i64) -> eyre::Result<()> {
     rec.reset_time();
-    rec.set_timestamp_nanos_since_epoch(SERVER_TIME, now_nanos);
+    rec.set_timestamp_nanos_since_epoch(SERVER_TIME, frame.server_stamp_nanos.unwrap_or(now_nanos));
     rec.log(
         format!("world/sensors/{}/joints", frame.sensor_id),
         &rerun::Points3D::new(frame.joints.iter().map(|s| f32x3(&s.position_in_kinect)))

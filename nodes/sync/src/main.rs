@@ -17,6 +17,7 @@ use std::collections::HashMap;
 
 use eyre::{Context, bail};
 use tracing::{info, warn};
+use trigait_node_config::RigStamp;
 use trigait_schema::{FrameTiming, Message, NtpExchange, SkeletonFrameMessage, ports};
 use trigait_sync::{AlignedSet, Error as SyncError, NtpSchedule, SampleOutcome, SyncBuffer};
 
@@ -115,6 +116,9 @@ pub struct Counters {
     pub malformed: u64,
     /// Frames dropped by the buffer (not synchronised yet, late, from the future, …).
     pub frames_dropped: u64,
+    /// Sets still waiting for frames when the graph was stopped (not sent: nothing sent after
+    /// a stop is delivered).
+    pub sets_unfinished_at_stop: u64,
 }
 
 struct Outputs {
@@ -168,6 +172,8 @@ struct State {
     timings: Vec<FrameTiming>,
     ntp_schedule: NtpSchedule,
     request_id: u64,
+    /// The rig the first stamped frame was made with; every later source must share it.
+    rig: Option<RigStamp>,
 }
 
 /// The event loop.
@@ -197,9 +203,12 @@ pub fn run(
         // Each sensor's exchange at its own phase of the interval, not all on one tick.
         ntp_schedule: NtpSchedule::new(sensors.len(), config.ntp_interval_nanos),
         request_id: 0,
+        rig: None,
         sensors,
         routes,
     };
+    let mut stopped = false;
+    let mut closed: Vec<String> = Vec::new();
     while let Some(event) = events.recv() {
         trigait_node_log::warn_drops(&mut events);
         match event {
@@ -223,25 +232,39 @@ pub fn run(
             }
             Event::InputClosed { id } => {
                 if let Input::Frame(sensor) = Input::parse(id.as_str()) {
-                    warn!(%sensor, "source stopped; its sets go out incomplete from now on");
+                    closed.push(sensor.to_owned());
+                    if closed.len() < state.sensors.len() {
+                        warn!(%sensor, "source stopped; its sets go out incomplete from now on");
+                    } else {
+                        info!("every source has ended; sending the last sets");
+                        break;
+                    }
                 }
             }
-            Event::Stop(_) => {}
+            Event::Stop(_) => stopped = true,
             Event::Error(e) => warn!("event stream error: {e}"),
             _ => {}
         }
     }
     let sets: Vec<AlignedSet> = state.buffer.flush().collect();
-    emit(
-        &mut node,
-        &state.out,
-        sets,
-        now_nanos(),
-        &mut state.counters,
-    )?;
+    if stopped {
+        // dora delivers nothing a node sends after the stop reached the graph, so a set still
+        // waiting for the frames after its instant cannot arrive anywhere: it is counted here,
+        // not sent into the void.
+        state.counters.sets_unfinished_at_stop = sets.len() as u64;
+    } else {
+        emit(
+            &mut node,
+            &state.out,
+            sets,
+            now_nanos(),
+            state.rig.as_ref(),
+            &mut state.counters,
+        )?;
+    }
     let c = state.buffer.counters();
     info!(
-        "frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; NTP in {} rejected {} steps {}; sets {} ({} incomplete, {} empty)",
+        "frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; NTP in {} rejected {} steps {}; sets sent {} ({} incomplete, {} empty), {} unfinished at the stop",
         c.frames_in,
         c.frames_unsynchronised,
         c.frames_late,
@@ -250,9 +273,10 @@ pub fn run(
         c.ntp_in,
         c.ntp_rejected,
         c.clock_steps,
-        c.sets_out,
+        state.counters.sets_sent,
         c.sets_incomplete,
-        c.sets_empty
+        c.sets_empty,
+        state.counters.sets_unfinished_at_stop
     );
     Ok(state.counters)
 }
@@ -277,16 +301,23 @@ impl State {
             self.counters.ntp_requests += 1;
         }
         let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
-        emit(node, &self.out, sets, now, &mut self.counters)?;
+        emit(
+            node,
+            &self.out,
+            sets,
+            now,
+            self.rig.as_ref(),
+            &mut self.counters,
+        )?;
         if !self.timings.is_empty() {
             let array =
                 FrameTiming::encode_many(&self.timings).context("encoding frame timings")?;
-            node.send_output(
-                self.out.timing.clone(),
-                MetadataParameters::default(),
-                array,
-            )
-            .context("sync: sending frame_timing")?;
+            let mut params = MetadataParameters::default();
+            if let Some(rig) = &self.rig {
+                rig.insert_into(&mut params);
+            }
+            node.send_output(self.out.timing.clone(), params, array)
+                .context("sync: sending frame_timing")?;
             self.timings.clear();
         }
         Ok(())
@@ -358,8 +389,23 @@ impl State {
                 return Ok(());
             }
         };
+        if let Some(theirs) = RigStamp::from_params(params) {
+            match &self.rig {
+                Some(first) => first
+                    .check(&theirs)
+                    .map_err(|e| eyre::eyre!("sync: the sources disagree on the rig: {e}"))?,
+                None => self.rig = Some(theirs),
+            }
+        }
         let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
-        emit(node, &self.out, sets, now, &mut self.counters)?;
+        emit(
+            node,
+            &self.out,
+            sets,
+            now,
+            self.rig.as_ref(),
+            &mut self.counters,
+        )?;
         self.timings.push(timing_of(
             &self.buffer,
             &frame,
@@ -369,7 +415,14 @@ impl State {
         match self.buffer.push(frame) {
             Ok(sets) => {
                 let sets: Vec<AlignedSet> = sets.collect();
-                emit(node, &self.out, sets, sent, &mut self.counters)?;
+                emit(
+                    node,
+                    &self.out,
+                    sets,
+                    sent,
+                    self.rig.as_ref(),
+                    &mut self.counters,
+                )?;
             }
             Err(SyncError::NotSynchronised { .. }) => self.counters.frames_dropped += 1,
             Err(e) => {
@@ -397,6 +450,7 @@ fn timing_of(
         offset_nanos: estimate.map(|e| e.offset_nanos),
         drift_ppm: estimate.map(|e| e.drift_ppm),
         true_stamp_nanos,
+        joints: frame.joints.clone(),
     }
 }
 
@@ -405,10 +459,14 @@ fn emit(
     out: &Outputs,
     sets: Vec<AlignedSet>,
     trigger_sent_nanos: i64,
+    rig: Option<&RigStamp>,
     counters: &mut Counters,
 ) -> eyre::Result<()> {
     for set in sets {
         let mut params = MetadataParameters::default();
+        if let Some(rig) = rig {
+            rig.insert_into(&mut params);
+        }
         params.insert(
             ports::TRIGGER_SENT_NANOS.to_owned(),
             Parameter::Integer(trigger_sent_nanos),

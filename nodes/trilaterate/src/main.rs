@@ -14,6 +14,7 @@ use eyre::Context;
 use tracing::{info, warn};
 use trigait_fusion::{FusionRig, PoseFuser, SensorSamples};
 use trigait_kinect::NoiseModel;
+use trigait_node_config::RigStamp;
 use trigait_schema::{FusedPose, Message, ports};
 use trigait_sync::AlignedSet;
 
@@ -46,11 +47,13 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
     let pose_out = DataId::from(ports::FUSED_POSE.to_owned());
     let mut counters = Counters::default();
     let mut warned_unknown = false;
+    let stamp = RigStamp::new("trilaterate", &config.rig);
     while let Some(event) = events.recv() {
         trigait_node_log::warn_drops(&mut events);
         match event {
             Event::Input { id, metadata, data } => match id.as_str() {
                 ports::ALIGNED_SET => {
+                    stamp.check_params(&metadata.parameters)?;
                     let Some((pose, unknown)) =
                         on_aligned_set(&mut fuser, data.as_array().as_ref())
                     else {

@@ -22,7 +22,7 @@
 
 mod trajectory;
 
-pub use trajectory::{Trajectory, TrajectoryError};
+pub use trajectory::{FrameGrid, Trajectory, TrajectoryError};
 
 use std::collections::{BTreeMap, BTreeSet};
 

@@ -85,18 +85,18 @@ impl Trajectory {
         spacing.get(spacing.len() / 2).copied()
     }
 
-    /// The trajectory as a clip named `name`: frame 0 at the first pose's instant, the rate
-    /// from [`Self::period_nanos`], the joints any pose fused, in Kinect joint order.
+    /// Where the poses land in a clip: frame 0 at the first pose's instant, the period from
+    /// [`Self::period_nanos`], the joints any pose fused, in Kinect joint order.
     ///
     /// # Errors
-    /// [`TrajectoryError`]: too few poses for a rate, or instants spanning more than ten
-    /// times as many frames as there are poses (plus a minute).
-    pub fn to_clip(&self, name: impl Into<String>) -> Result<MotionClip, TrajectoryError> {
-        let poses = self.poses.len();
-        let (Some(period), Some((_, (t0, _)))) =
+    /// [`TrajectoryError::TooFewPoses`] without two poses with increasing instants.
+    pub fn grid(&self) -> Result<FrameGrid, TrajectoryError> {
+        let (Some(period_nanos), Some((_, (t0_nanos, _)))) =
             (self.period_nanos(), self.poses.first_key_value())
         else {
-            return Err(TrajectoryError::TooFewPoses { poses });
+            return Err(TrajectoryError::TooFewPoses {
+                poses: self.poses.len(),
+            });
         };
         let mut joints: Vec<Joint> = self
             .poses
@@ -105,33 +105,98 @@ impl Trajectory {
             .collect();
         joints.sort_by_key(|j| j.index());
         joints.dedup();
-        let frame_of = |t: i64| ((t - t0) as f64 / period).round();
-        let last = self
-            .poses
-            .values()
-            .map(|(t, _)| frame_of(*t))
-            .fold(0.0, f64::max);
-        let bound = 10.0 * poses as f64 + 60e9 / period;
+        Ok(FrameGrid {
+            t0_nanos: *t0_nanos,
+            period_nanos,
+            joints,
+        })
+    }
+
+    /// The frames from `from_frame` to the newest pose's on `grid`, one row of cells (one per
+    /// grid joint; `None` where no pose fused it) each: what a clip on `grid` holds there.
+    /// Poses before `from_frame` are not looked at, so writing a run as it goes costs the
+    /// new poses only.
+    ///
+    /// # Errors
+    /// [`TrajectoryError::InstantsJump`] when the newest pose lies more than ten times as many
+    /// frames past `from_frame` as there are poses held (plus a minute).
+    pub fn rows_from(
+        &self,
+        grid: &FrameGrid,
+        from_frame: usize,
+    ) -> Result<Vec<Vec<Option<Point3<f64>>>>, TrajectoryError> {
+        let poses = self.poses.len();
+        let Some((_, (newest, _))) = self.poses.last_key_value() else {
+            return Ok(Vec::new());
+        };
+        let last = grid.frame_of(*newest);
+        let bound = from_frame as f64 + 10.0 * poses as f64 + 60e9 / grid.period_nanos;
         if last > bound {
             return Err(TrajectoryError::InstantsJump {
                 poses,
                 frames: last,
-                period_nanos: period,
+                period_nanos: grid.period_nanos,
             });
         }
-        let mut rows = vec![vec![None; joints.len()]; last as usize + 1];
-        for (t, fused) in self.poses.values() {
-            let f = frame_of(*t);
-            let Some(row) = (f >= 0.0).then(|| rows.get_mut(f as usize)).flatten() else {
+        if last < from_frame as f64 {
+            return Ok(Vec::new());
+        }
+        let mut rows = vec![vec![None; grid.joints.len()]; last as usize + 1 - from_frame];
+        // Newest first, until the poses fall before `from_frame` (instants grow with seq).
+        for (t, fused) in self.poses.values().rev() {
+            let f = grid.frame_of(*t);
+            if f < from_frame as f64 {
+                break;
+            }
+            let Some(row) = rows.get_mut(f as usize - from_frame) else {
                 continue;
             };
-            for (cell, joint) in row.iter_mut().zip(&joints) {
-                if let Some(p) = fused.get(joint) {
+            for (cell, joint) in row.iter_mut().zip(&grid.joints) {
+                if cell.is_none()
+                    && let Some(p) = fused.get(joint)
+                {
                     *cell = Some(*p);
                 }
             }
         }
-        Ok(MotionClip::new(name, 1e9 / period, joints, rows)?)
+        Ok(rows)
+    }
+
+    /// The trajectory as a clip named `name`, on [`Self::grid`].
+    ///
+    /// # Errors
+    /// [`TrajectoryError`]: too few poses for a rate, or instants spanning more than ten
+    /// times as many frames as there are poses (plus a minute).
+    pub fn to_clip(&self, name: impl Into<String>) -> Result<MotionClip, TrajectoryError> {
+        let grid = self.grid()?;
+        let rows = self.rows_from(&grid, 0)?;
+        Ok(MotionClip::new(name, grid.rate_hz(), grid.joints, rows)?)
+    }
+}
+
+/// Where fused poses land in a clip: frame `k` is the instant `t0_nanos + k × period_nanos`,
+/// and the columns are `joints`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameGrid {
+    /// The instant of frame 0 (the first pose's), server clock, ns.
+    pub t0_nanos: i64,
+    /// The frame period, ns.
+    pub period_nanos: f64,
+    /// The columns, in Kinect joint order.
+    pub joints: Vec<Joint>,
+}
+
+impl FrameGrid {
+    /// The frame nearest `stamp_nanos` (negative before frame 0).
+    #[must_use]
+    pub fn frame_of(&self, stamp_nanos: i64) -> f64 {
+        ((stamp_nanos - self.t0_nanos) as f64 / self.period_nanos).round()
+    }
+
+    /// Frames per second.
+    #[must_use]
+    pub fn rate_hz(&self) -> f64 {
+        1e9 / self.period_nanos
     }
 }
 
@@ -188,6 +253,14 @@ mod tests {
                 Some(6.0)
             ]
         );
+        // Read as a run goes (new frames only, after each batch of poses), the rows are the
+        // clip's.
+        let grid = t.grid().unwrap();
+        assert_eq!(t.rows_from(&grid, 7).unwrap().len(), 0);
+        let tail = t.rows_from(&grid, 4).unwrap();
+        assert_eq!(tail.len(), 3);
+        assert_eq!(tail[0], vec![None]);
+        assert_eq!(tail[2].first().copied().flatten().map(|p| p.x), Some(6.0));
         // A server clock that jumps an hour is an error, not an hour of empty frames.
         t.push(&pose(6, 3_600_000_000_000, 7.0));
         assert!(matches!(

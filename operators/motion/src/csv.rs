@@ -9,27 +9,48 @@ use trigait_skeleton::{Joint, MotionClip};
 
 use crate::{Error, Result};
 
-/// The CSV text of `clip`: a header `frame,time_s,<joint>_x_m,<joint>_y_m,<joint>_z_m,…`, then
-/// one row per frame in metres in the world frame; a gap is three empty cells.
-#[must_use]
-pub(crate) fn csv_text(clip: &MotionClip) -> String {
-    let mut out = String::from("frame,time_s");
-    for j in clip.joints() {
+/// The header line: `frame,time_s,<joint>_x_m,<joint>_y_m,<joint>_z_m,…`.
+fn push_header(out: &mut String, joints: &[Joint]) {
+    out.push_str("frame,time_s");
+    for j in joints {
         // Writing into a String cannot fail.
         let _ = write!(out, ",{j}_x_m,{j}_y_m,{j}_z_m");
     }
     out.push('\n');
-    for f in 0..clip.frame_count() {
-        let _ = write!(out, "{f},{:.6}", f as f64 / clip.rate_hz());
-        for j in clip.joints() {
-            match clip.position(f, *j) {
-                Some(p) => {
-                    let _ = write!(out, ",{:.6},{:.6},{:.6}", p.x, p.y, p.z);
-                }
-                None => out.push_str(",,,"),
+}
+
+/// One frame's line: its number, its time, then x,y,z per joint (a gap: three empty cells).
+fn push_row(
+    out: &mut String,
+    frame: usize,
+    rate_hz: f64,
+    cells: impl IntoIterator<Item = Option<Point3<f64>>>,
+) {
+    let _ = write!(out, "{frame},{:.6}", frame as f64 / rate_hz);
+    for cell in cells {
+        match cell {
+            Some(p) => {
+                let _ = write!(out, ",{:.6},{:.6},{:.6}", p.x, p.y, p.z);
             }
+            None => out.push_str(",,,"),
         }
-        out.push('\n');
+    }
+    out.push('\n');
+}
+
+/// The CSV text of `clip`: a header `frame,time_s,<joint>_x_m,<joint>_y_m,<joint>_z_m,…`, then
+/// one row per frame in metres in the world frame; a gap is three empty cells.
+#[must_use]
+pub(crate) fn csv_text(clip: &MotionClip) -> String {
+    let mut out = String::new();
+    push_header(&mut out, clip.joints());
+    for f in 0..clip.frame_count() {
+        push_row(
+            &mut out,
+            f,
+            clip.rate_hz(),
+            clip.joints().iter().map(|j| clip.position(f, *j)),
+        );
     }
     out
 }
@@ -46,6 +67,93 @@ pub fn write_csv(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
         path: path.to_path_buf(),
         source,
     })
+}
+
+/// A joint CSV written a few frames at a time, in exactly the format of [`write_csv`], for a
+/// recording that must be on disk as it goes (a process killed mid-run leaves a file
+/// [`read_csv`] reads, up to the last [`CsvAppender::flush`]).
+#[derive(Debug)]
+pub struct CsvAppender {
+    path: std::path::PathBuf,
+    file: std::fs::File,
+    joints: Vec<Joint>,
+    rate_hz: f64,
+    frames: usize,
+}
+
+impl CsvAppender {
+    /// Creates (or truncates) `path` and writes the header for `joints` at `rate_hz`.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if the file cannot be created or written.
+    pub fn create(path: impl AsRef<Path>, joints: &[Joint], rate_hz: f64) -> Result<Self> {
+        let path = path.as_ref().to_path_buf();
+        let io = |source| Error::Io {
+            path: path.clone(),
+            source,
+        };
+        let file = std::fs::File::create(&path).map_err(io)?;
+        let mut appender = Self {
+            file,
+            joints: joints.to_vec(),
+            rate_hz,
+            frames: 0,
+            path: path.clone(),
+        };
+        let mut header = String::new();
+        push_header(&mut header, joints);
+        appender.write(&header)?;
+        Ok(appender)
+    }
+
+    /// The columns, in order.
+    #[must_use]
+    pub fn joints(&self) -> &[Joint] {
+        &self.joints
+    }
+
+    /// Frames written so far (the next frame's number).
+    #[must_use]
+    pub fn frames(&self) -> usize {
+        self.frames
+    }
+
+    /// Appends the next frames, one row of cells (one per joint of [`Self::joints`]) each;
+    /// missing trailing cells are gaps, extra cells are ignored.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if the file cannot be written.
+    pub fn append(&mut self, rows: &[Vec<Option<Point3<f64>>>]) -> Result<()> {
+        let mut text = String::new();
+        for (i, row) in rows.iter().enumerate() {
+            let cells = (0..self.joints.len()).map(|j| row.get(j).copied().flatten());
+            push_row(&mut text, self.frames + i, self.rate_hz, cells);
+        }
+        self.write(&text)?;
+        self.frames += rows.len();
+        Ok(())
+    }
+
+    /// Makes what was appended durable (`fsync` of the file's data).
+    ///
+    /// # Errors
+    /// [`Error::Io`] if the system refuses.
+    pub fn flush(&mut self) -> Result<()> {
+        self.file.sync_data().map_err(|source| Error::Io {
+            path: self.path.clone(),
+            source,
+        })
+    }
+
+    fn write(&mut self, text: &str) -> Result<()> {
+        use std::io::Write as _;
+        self.file
+            .write_all(text.as_bytes())
+            .map_err(|source| Error::Io {
+                path: self.path.clone(),
+                source,
+            })
+    }
 }
 
 fn csv_error(path: &Path, line: usize, reason: impl Into<String>) -> Error {
@@ -224,6 +332,40 @@ mod read_tests {
                 }
             }
         }
+    }
+
+    /// Appended a few frames at a time, the file is byte for byte what `write_csv` writes of
+    /// the same clip, and `read_csv` reads it after every flush.
+    #[test]
+    fn appended_file_is_the_written_one() {
+        let clip = MotionClip::new(
+            "c",
+            30.0,
+            vec![Joint::KneeLeft, Joint::AnkleLeft],
+            (0..7)
+                .map(|f| {
+                    let p = Point3::new(f as f64 * 0.05, 0.1, 0.4);
+                    vec![Some(p), (f % 3 != 1).then_some(p)]
+                })
+                .collect(),
+        )
+        .unwrap();
+        let dir = std::env::temp_dir().join(format!("trigait-csv-append-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("live.csv");
+        let mut live = CsvAppender::create(&path, clip.joints(), clip.rate_hz()).unwrap();
+        let rows: Vec<Vec<Option<Point3<f64>>>> = (0..7)
+            .map(|f| clip.joints().iter().map(|j| clip.position(f, *j)).collect())
+            .collect();
+        for chunk in rows.chunks(3) {
+            live.append(chunk).unwrap();
+            live.flush().unwrap();
+            if live.frames() >= 2 {
+                assert_eq!(read_csv(&path).unwrap().frame_count(), live.frames());
+            }
+        }
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), csv_text(&clip));
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     /// Malformed CSV is a typed error naming the line.

@@ -58,7 +58,7 @@ pub use centres::{JointCentreParams, joint_centres, joint_centres_with};
 /// of 300-marker capture at 100 Hz. What a reader builds from a file is bounded by a small
 /// multiple of its size, so this bounds its memory too.
 pub const MAX_MOTION_FILE_BYTES: u64 = 512 << 20;
-pub use csv::{read_csv, write_csv};
+pub use csv::{CsvAppender, read_csv, write_csv};
 pub use error::{Error, Result};
 pub use lap::{there_and_back, walkway_laps};
 pub use markers::{MarkerGaps, MarkerSet};

@@ -352,6 +352,38 @@ impl Rig {
         }
     }
 
+    /// A short text that two rigs share exactly when they hold the same sensor ids at the same
+    /// poses (to 0.1 mm and 1 µrad; the name does not count): nodes of one graph that read the
+    /// rig each from their own `RIG` compare it to find out they were given different rigs.
+    #[must_use]
+    pub fn fingerprint(&self) -> String {
+        // FNV-1a over the ids and the rounded pose coordinates: stable across builds and
+        // platforms, unlike `std`'s hasher.
+        let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |bytes: &[u8]| {
+            for b in bytes {
+                hash ^= u64::from(*b);
+                hash = hash.wrapping_mul(0x0100_0000_01b3);
+            }
+        };
+        for s in &self.sensors {
+            eat(s.id.as_bytes());
+            eat(&[0]);
+            let t = s.world_from_kinect.translation.vector;
+            // A quaternion and its negative are one rotation: fix the sign first.
+            let q = s.world_from_kinect.rotation.coords;
+            let q = if q.w < 0.0 { -q } else { q };
+            let rounded = t
+                .iter()
+                .map(|v| (v * 1e4).round() as i64)
+                .chain(q.iter().map(|v| (v * 1e6).round() as i64));
+            for v in rounded {
+                eat(&v.to_le_bytes());
+            }
+        }
+        format!("{}:{hash:016x}", self.sensors.len())
+    }
+
     /// Largest distance between two sensors (the thesis recommends ≤ 10 m, §6.4.4).
     #[must_use]
     pub fn span_m(&self) -> f64 {
@@ -433,6 +465,33 @@ mod tests {
     use approx::assert_relative_eq;
 
     use super::*;
+
+    /// The fingerprint tells rigs apart by poses and ids, not by name: a rig written to YAML and
+    /// read back (another name, rounded look-at points) keeps it; moving one sensor 1 mm or
+    /// renaming one changes it.
+    #[test]
+    fn fingerprint_follows_poses_and_ids() {
+        let thesis = Rig::from_spec("thesis").unwrap();
+        let yaml = serde_yaml::to_string(&thesis.to_rig_file()).unwrap();
+        let mut copy = Rig::from_yaml_str(&yaml, "copy").unwrap();
+        copy.name = "lab-a".into();
+        assert_eq!(copy.fingerprint(), thesis.fingerprint());
+        assert_ne!(
+            thesis.fingerprint(),
+            Rig::from_spec("ring-3").unwrap().fingerprint()
+        );
+        let mut moved = thesis.clone();
+        moved.sensors[1].world_from_kinect.translation.vector.x += 0.001;
+        assert_ne!(moved.fingerprint(), thesis.fingerprint());
+        let mut renamed = thesis.clone();
+        renamed.sensors[2].id = "k9".into();
+        assert_ne!(renamed.fingerprint(), thesis.fingerprint());
+        assert!(
+            thesis.fingerprint().starts_with("3:"),
+            "{}",
+            thesis.fingerprint()
+        );
+    }
 
     /// The thesis rig: isosceles triangle 4.6 m high, base 4.27 m, sensors ≤ 10 m apart, every
     /// point of the 3 m walking line within the 0.5–4.5 m working range of every sensor.

@@ -57,6 +57,16 @@ pub const TRUE_STAMP_NANOS: &str = "trigait.true_stamp_nanos";
 /// end-to-end latency.
 pub const TRIGGER_SENT_NANOS: &str = "trigait.trigger_sent_nanos";
 
+/// Metadata key (string): the [`RIG_FINGERPRINT`] of the rig the node that first sent the
+/// message read from its `RIG` (sources stamp their frames; `sync` forwards the sources' stamp
+/// on its sets and timings; `trilaterate` forwards it on its poses). Every node that reads a
+/// rig compares it with its own and stops with an error naming both nodes when they differ.
+pub const RIG_FINGERPRINT: &str = "trigait.rig_fingerprint";
+/// Metadata key (string): the name of that rig (`thesis`, `ring-5`, a file stem), for errors.
+pub const RIG_NAME: &str = "trigait.rig_name";
+/// Metadata key (string): the node whose `RIG` it is (`k1`), for errors.
+pub const RIG_NODE: &str = "trigait.rig_node";
+
 /// The sensor id of a `sync`/`recorder` input id with `prefix` (`frame_k1` → `k1`).
 #[must_use]
 pub fn sensor_of<'a>(input_id: &'a str, prefix: &str) -> Option<&'a str> {

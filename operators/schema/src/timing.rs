@@ -1,10 +1,14 @@
-//! `frame_timing`: how `sync` placed one sensor frame on the server clock (`sync → recorder`),
-//! for the offset plots and the summary's NTP error.
+//! `frame_timing`: every sensor frame `sync` received, with its placement on the server clock
+//! (`sync → recorder`): for the offset plots, the summary's NTP error and frame counts, and the
+//! raw joints the recorder draws per sensor. Forwarding the frames here is what keeps the
+//! recorder at the same few inputs whatever the number of sensors.
 //!
 //! ```text
 //! Struct { sensor_id: Utf8, seq: UInt64, local_stamp_nanos: Int64 (sensor clock),
 //!          server_stamp_nanos: Int64?, uncertainty_nanos: Int64?, offset_nanos: Int64?,
-//!          drift_ppm: Float64?, true_stamp_nanos: Int64? }
+//!          drift_ppm: Float64?, true_stamp_nanos: Int64?,
+//!          joints: List<Struct { joint: UInt8, position_in_kinect_m: FixedSizeList<Float64, 3>,
+//!                                state: UInt8 }> }
 //! ```
 //! The server fields are null while the sensor is not synchronised yet; `true_stamp_nanos` is the
 //! capture instant on the server clock when the source knows it (simulated sensors), so the
@@ -14,7 +18,12 @@ use arrow_array::types::{Float64Type, Int64Type, UInt64Type};
 use arrow_array::{Array, ArrayRef, Float64Array, Int64Array, StringArray, UInt64Array};
 use arrow_schema::{DataType, Fields};
 
-use crate::codec::{Builder, Rows, field, nullable, struct_of};
+use trigait_skeleton::JointSample;
+
+use crate::codec::{
+    Builder, Rows, decode_joint_samples, encode_joint_samples, field, joint_sample_fields, list_of,
+    list_range, nullable, struct_of,
+};
 use crate::{Message, Result};
 
 /// One frame's placement on the server clock.
@@ -36,6 +45,8 @@ pub struct FrameTiming {
     pub drift_ppm: Option<f64>,
     /// True capture instant on the server clock, when known (simulation), nanoseconds.
     pub true_stamp_nanos: Option<i64>,
+    /// The frame's joints as the sensor sent them (Kinect camera space).
+    pub joints: Vec<JointSample>,
 }
 
 impl FrameTiming {
@@ -56,6 +67,7 @@ fn fields() -> Fields {
         nullable("offset_nanos", DataType::Int64),
         nullable("drift_ppm", DataType::Float64),
         nullable("true_stamp_nanos", DataType::Int64),
+        field("joints", list_of(struct_of(joint_sample_fields()))),
     ])
 }
 
@@ -72,6 +84,9 @@ impl Message for FrameTiming {
         };
         let ints =
             |f: fn(&FrameTiming) -> Option<i64>| b.optionals::<Int64Type>(messages.iter().map(f));
+        let samples = messages.iter().flat_map(|m| m.joints.iter());
+        let joints = b.structs(&joint_sample_fields(), encode_joint_samples(&b, samples)?)?;
+        let lengths: Vec<usize> = messages.iter().map(|m| m.joints.len()).collect();
         b.structs(
             &fields(),
             vec![
@@ -83,6 +98,7 @@ impl Message for FrameTiming {
                 ints(|m| m.offset_nanos),
                 b.optionals::<Float64Type>(messages.iter().map(|m| m.drift_ppm)),
                 ints(|m| m.true_stamp_nanos),
+                b.list(struct_of(joint_sample_fields()), &lengths, joints)?,
             ],
         )
     }
@@ -97,6 +113,8 @@ impl Message for FrameTiming {
         let uncertainty = top.column::<Int64Array>("uncertainty_nanos")?;
         let offset = top.column::<Int64Array>("offset_nanos")?;
         let truth = top.column::<Int64Array>("true_stamp_nanos")?;
+        let (joints_list, joints_path) = top.nested("joints")?;
+        let (_, items) = decode_joint_samples(joints_list.values().as_ref(), &joints_path)?;
         top.rows()
             .map(|row| {
                 Ok(FrameTiming {
@@ -108,6 +126,7 @@ impl Message for FrameTiming {
                     offset_nanos: offset.optional(row),
                     drift_ppm: drifts.optional(row),
                     true_stamp_nanos: truth.optional(row),
+                    joints: items[list_range(joints_list, &joints_path, row)?].to_vec(),
                 })
             })
             .collect()
@@ -118,7 +137,8 @@ impl Message for FrameTiming {
 mod tests {
     use super::*;
 
-    /// A synchronised and an unsynchronised row survive a round trip; the error is server − true.
+    /// A synchronised row with joints and an unsynchronised one without survive a round trip;
+    /// the error is server − true.
     #[test]
     fn round_trip() {
         let rows = vec![
@@ -131,6 +151,18 @@ mod tests {
                 offset_nanos: Some(100),
                 drift_ppm: Some(12.5),
                 true_stamp_nanos: Some(880),
+                joints: vec![
+                    JointSample {
+                        joint: trigait_skeleton::Joint::KneeLeft,
+                        position_in_kinect: nalgebra::Point3::new(0.1, -0.2, 2.5),
+                        state: trigait_skeleton::TrackingState::Tracked,
+                    },
+                    JointSample {
+                        joint: trigait_skeleton::Joint::AnkleRight,
+                        position_in_kinect: nalgebra::Point3::new(-0.1, -0.6, 2.4),
+                        state: trigait_skeleton::TrackingState::Inferred,
+                    },
+                ],
             },
             FrameTiming {
                 sensor_id: "k2".into(),
@@ -141,6 +173,7 @@ mod tests {
                 offset_nanos: None,
                 drift_ppm: None,
                 true_stamp_nanos: None,
+                joints: Vec::new(),
             },
         ];
         let array = FrameTiming::encode_many(&rows).unwrap();
