@@ -484,6 +484,7 @@ mod tests {
             offset_nanos: Some(0),
             drift_ppm: Some(0.0),
             true_stamp_nanos: Some(true_nanos),
+            joints: Vec::new(),
         }
     }
 
@@ -512,7 +513,7 @@ mod tests {
             .collect();
         stats.push_timing(&rows);
         stats.push_timing(&[timing("k1", 150, 5_600_000_000, 1_000_000)]);
-        let s = stats.summary(6_000_000_000);
+        let s = stats.summary(6_000_000_000, true);
         let (k1, k2) = (&s.ntp["k1"], &s.ntp["k2"]);
         assert_eq!(k1.frames_checked, 151);
         assert_eq!(k1.frames_over_1ms, 7, "{k1:?}");
