@@ -2,32 +2,34 @@
 # The README's run command: the default graph (3 simulated Kinects on the thesis rig, NTP sync,
 # interpolation, fusion, headless rerun recording) for 15 s, then a readable summary.
 #   scripts/run.sh            # then: .venv/bin/rerun out/trigait.rrd
+#   scripts/run.sh dataflows/python-stage.yml   # any other graph; the summary of its OUTPUT_DIR
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-if [ ! -x .venv/bin/dora ]; then
-  echo "==> creating .venv with dora-rs-cli==1.1.0 (and rerun-sdk==0.36.3 for the viewer)"
-  python3 -m venv .venv
-  .venv/bin/pip install --quiet dora-rs-cli==1.1.0 rerun-sdk==0.36.3
-fi
+scripts/venv.sh   # .venv/ with the pinned packages of scripts/requirements.txt
 export PATH="$PWD/.venv/bin:$PATH"
 
 echo "==> building the nodes (release)"
 cargo build --release --workspace --all-targets
-rm -f out/summary.json
+GRAPH="${1:-dataflow.yml}"
+# The recorder's OUTPUT_DIR, relative to the graph's folder (where dora starts the nodes).
+OUT="$(dirname "$GRAPH")/$(sed -n 's/^ *OUTPUT_DIR: *//p' "$GRAPH" | head -1)"
+OUT="$(realpath --relative-to=. -m "$OUT")"
+rm -f "$OUT/summary.json"
 # The sources end the run after STOP_AFTER (their STOP_AFTER_SECS, inherited from this
 # environment), so the graph shuts down source first and every set reaches the recorder;
 # --stop-after is only a safety net.
 secs="${STOP_AFTER:-15s}"
 secs="${secs%s}"
-echo "==> dora run dataflow.yml (${secs} s)"
-STOP_AFTER_SECS="$secs" dora run dataflow.yml --stop-after "$((secs + 30))s"
+echo "==> dora run $GRAPH (${secs} s)"
+STOP_AFTER_SECS="$secs" dora run "$GRAPH" --stop-after "$((secs + 30))s"
 
-python3 - out/summary.json <<'PY'
+python3 - "$OUT" <<'PY'
 import json, sys
-s = json.load(open(sys.argv[1]))
+out = sys.argv[1]
+s = json.load(open(f"{out}/summary.json"))
 print()
-print("trigait summary (out/summary.json)")
+print(f"trigait summary ({out}/summary.json)")
 lost = s.get("frames_lost", {})
 print(f"  frames in        : {', '.join(f'{k} {v} (lost {lost.get(k, 0)})' for k, v in s['frames_in'].items())}")
 print(f"  sets fused       : {s['sets_fused']}  (dropped {s['dropped_sets']}, incomplete {s['incomplete_sets']})")
@@ -46,6 +48,6 @@ print(f"  warm-up          : {w['poses']} poses in the first {w['secs']:g} s, la
 a = s["age_ms"]
 print(f"  pose age         : p50 {a['p50']:.1f} ms, p99 {a['p99']:.1f} ms (fusion instant -> recorded)")
 print(f"  gaps             : {len(s['gaps'])}")
-print("  recording        : out/trigait.rrd  (view: .venv/bin/rerun out/trigait.rrd)")
-print("  exports          : out/trajectory.txt (thesis format), out/trajectory.csv/.trc/.c3d (trigait gait/export read them)")
+print(f"  recording        : {out}/trigait.rrd  (view: .venv/bin/rerun {out}/trigait.rrd)")
+print(f"  exports          : {out}/trajectory.txt (thesis format), {out}/trajectory.csv/.trc/.c3d (trigait gait/export read them)")
 PY

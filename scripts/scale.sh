@@ -8,10 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 SECS="${1:-12}"
 COUNTS="${2:-3 8 16}"
-if [ ! -x .venv/bin/dora ]; then
-  python3 -m venv .venv
-  .venv/bin/pip install --quiet dora-rs-cli==1.1.0 rerun-sdk==0.36.3
-fi
+scripts/venv.sh   # .venv/ with the pinned packages of scripts/requirements.txt
 export PATH="$PWD/.venv/bin:$PATH"
 cargo build --release --workspace --all-targets
 ROOT="$PWD"

@@ -1,16 +1,13 @@
 #!/usr/bin/env bash
 # Every check CI runs, from a fresh clone: formatting, lints, then all tests.
 # One build profile (release) serves tests, benches, graphs and the CLI; see DESIGN.md "Build time".
-# The graph tests (tests/dataflow.rs) run `dora run`: the dora CLI and the rerun .rrd reader come
-# from pip into .venv/ (prebuilt wheels, seconds), and .venv/bin goes on PATH.
+# The graph tests (tests/dataflow.rs) run `dora run`: the dora CLI, the rerun .rrd reader and the
+# Python node API (dora-rs, pyarrow) come from pip into .venv/ (prebuilt wheels, seconds), and
+# .venv/bin goes on PATH (dora starts a `.py` node with the first `python` on PATH).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-if [ ! -x .venv/bin/dora ] || [ ! -x .venv/bin/rerun ]; then
-  echo "==> creating .venv with dora-rs-cli==1.1.0 and rerun-sdk==0.36.3"
-  python3 -m venv .venv
-  .venv/bin/pip install --quiet dora-rs-cli==1.1.0 rerun-sdk==0.36.3
-fi
+scripts/venv.sh   # .venv/ with the pinned packages of scripts/requirements.txt
 export PATH="$PWD/.venv/bin:$PATH"
 
 echo "==> cargo fmt --check"

@@ -53,8 +53,8 @@ fn steps_logged(log: &str) -> Vec<(String, f64, u64)> {
         .collect()
 }
 
-/// The `WARN` lines of the start-up (`dora run` prefixes each line with `HH:MM:SS`).
-fn startup_warnings(log: &str) -> Vec<&str> {
+/// The lines of the start-up (`dora run` prefixes each line with `HH:MM:SS`).
+fn startup_lines(log: &str) -> Vec<&str> {
     let secs = |line: &str| {
         let stamp = line.get(..8)?;
         let mut parts = stamp.split(':').map(|p| p.parse::<u32>().ok());
@@ -71,7 +71,6 @@ fn startup_warnings(log: &str) -> Vec<&str> {
             // Modulo a day: a run may cross midnight.
             (t + 86_400 - t0) % 86_400 <= STARTUP_SECS
         })
-        .filter(|line| line.contains("WARN"))
         .collect()
 }
 
@@ -95,7 +94,13 @@ fn one_second_step_on_k2_resyncs_within_five_exchanges() {
 
     // dora's and zenoh's start-up diagnostics are debug (`trigait_node_log::DEMOTED`): the
     // start-up of a healthy graph prints no warning (before, 26 here).
-    let noise = startup_warnings(&run.log);
+    let startup = startup_lines(&run.log);
+    assert!(
+        startup.len() >= 10,
+        "the start-up (dora's spawn lines) not found:\n{}",
+        run.log
+    );
+    let noise: Vec<&str> = startup.into_iter().filter(|l| l.contains("WARN")).collect();
     assert!(
         noise.len() <= 2,
         "{} WARN lines at start-up:\n{}",

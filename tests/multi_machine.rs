@@ -41,6 +41,10 @@ impl Cluster {
             let log = std::fs::File::create(dir.join(log)).unwrap();
             plain_env(&mut Command::new(dora()))
                 .current_dir(dir)
+                // The simulated sources end the run 12 s after their first frame (the nodes
+                // inherit their daemon's environment), so the graph shuts down source first
+                // and every set reaches the recorder.
+                .env("STOP_AFTER_SECS", "12")
                 .args(args)
                 .stdout(log.try_clone().unwrap())
                 .stderr(log)
@@ -181,22 +185,37 @@ fn multi_machine_graph_runs_on_two_daemons() {
             )
         })
         .collect();
-    std::thread::sleep(Duration::from_secs(6));
-    let (ok, stop_log) = cluster.cli(&dir, &["stop", "trigait-mm", "--grace-duration", "10s"]);
-    assert!(ok, "dora stop failed:\n{stop_log}");
+    // The recorder rewrites summary.json as the run goes; the final one says `complete`.
     let out_dir = dir.join("out");
     let summary = out_dir.join("summary.json");
+    let complete = || {
+        std::fs::read_to_string(&summary)
+            .ok()
+            .and_then(|t| serde_json::from_str::<Value>(&t).ok())
+            .is_some_and(|s| s["complete"] == true)
+    };
     let start = Instant::now();
-    while !summary.exists() && start.elapsed() < Duration::from_secs(20) {
+    while !complete() && start.elapsed() < Duration::from_secs(40) {
         std::thread::sleep(Duration::from_millis(200));
     }
+    let (_, list_log) = cluster.cli(&dir, &["list"]);
+    // The daemons keep each node's output in `_work/<daemon>/out/<dataflow>/log_<node>.jsonl`.
+    let sync_log = find_file(&dir.join("_work"), "log_sync.jsonl")
+        .and_then(|p| std::fs::read_to_string(p).ok())
+        .unwrap_or_default();
     drop(cluster);
     let run = Run {
         success: true,
-        log: format!("{log}\n{stop_log}"),
+        log: format!("{log}\n{list_log}\n{sync_log}"),
         out_dir,
     };
     let s = run.summary();
+    assert_eq!(s["complete"], true, "the run did not end on its own: {s:#}");
+    assert!(
+        common::sync_sets_sent(&sync_log).is_some(),
+        "no closing line of sync in its daemon log"
+    );
+    run.assert_sets_delivered();
     eprintln!(
         "multi-machine on loopback: sets {}, RMSE {:.4} m, latency {:#}",
         s["sets_fused"],
@@ -230,4 +249,19 @@ fn multi_machine_graph_runs_on_two_daemons() {
             "{node} not on {machine}: {placed:?}\n{nodes}"
         );
     }
+}
+
+/// The first file named `name` under `dir`, depth first.
+fn find_file(dir: &Path, name: &str) -> Option<std::path::PathBuf> {
+    for entry in std::fs::read_dir(dir).ok()?.flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            if let Some(found) = find_file(&path, name) {
+                return Some(found);
+            }
+        } else if path.file_name().is_some_and(|n| n == name) {
+            return Some(path);
+        }
+    }
+    None
 }

@@ -190,7 +190,8 @@ impl Rrd {
     }
 }
 
-/// The graph text with node paths, output folder and data paths made absolute for `dir`.
+/// The graph text with node paths, output folder and data paths made absolute for `dir`, and
+/// without its build lines (the binaries are built once, by [`build_nodes`]).
 pub fn localise(graph: &str, dir: &Path) -> String {
     let ws = workspace();
     let ws = ws.display();
@@ -204,8 +205,11 @@ pub fn localise(graph: &str, dir: &Path) -> String {
             &format!("path: {ws}/target/release/"),
         )
         .replace("../../shared/data", &format!("{ws}/../shared/data"));
+    // [`build_nodes`] ran the graphs' one build line already; left in, dora would run it again
+    // for every node, which on a loaded 2-core machine took half a minute per graph.
     let lines: Vec<String> = text
         .lines()
+        .filter(|l| !l.trim_start().starts_with("build: cargo build"))
         .map(|l| match l.find("OUTPUT_DIR:") {
             Some(i) => format!("{}OUTPUT_DIR: {}", &l[..i], dir.join("out").display()),
             None => l.to_owned(),
@@ -216,23 +220,18 @@ pub fn localise(graph: &str, dir: &Path) -> String {
     text
 }
 
-/// Starts `graph` headless for `run_for` (`"12s"`). The simulated sources end the run
-/// themselves (`STOP_AFTER_SECS`, which every node inherits from `dora run`'s environment
-/// unless its `env:` sets it), so the graph shuts down source first and every set reaches the
-/// recorder; `--stop-after` is only a safety net 30 s later.
-pub fn spawn_graph(name: &str, graph: &str, run_for: &str) -> (Child, PathBuf) {
-    build_nodes();
-    let dir = workspace().join("target/dataflow-tests").join(name);
-    std::fs::remove_dir_all(&dir).ok();
-    std::fs::create_dir_all(&dir).expect("creating the test folder");
-    let yml = dir.join("graph.yml");
-    std::fs::write(&yml, localise(graph, &dir)).expect("writing the graph");
+/// `dora run graph.yml` in `dir` for `run_for` (`"12s"`), output captured: the simulated
+/// sources end the run themselves (`STOP_AFTER_SECS`, which every node inherits from `dora
+/// run`'s environment unless its `env:` sets it), so the graph shuts down source first and
+/// every set reaches the recorder; `--stop-after` is only a safety net 30 s later.
+pub fn dora_run(dir: &Path, run_for: &str) -> Command {
     let secs: u64 = run_for
         .trim_end_matches('s')
         .parse()
         .expect("run_for is whole seconds like \"12s\"");
-    let child = plain_env(&mut Command::new(dora()))
-        .current_dir(&dir)
+    let mut cmd = Command::new(dora());
+    plain_env(&mut cmd)
+        .current_dir(dir)
         .env("STOP_AFTER_SECS", secs.to_string())
         .args([
             "run",
@@ -241,7 +240,19 @@ pub fn spawn_graph(name: &str, graph: &str, run_for: &str) -> (Child, PathBuf) {
             &format!("{}s", secs + 30),
         ])
         .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
+        .stderr(Stdio::piped());
+    cmd
+}
+
+/// Starts `graph` headless in a fresh folder for `run_for` ([`dora_run`]).
+pub fn spawn_graph(name: &str, graph: &str, run_for: &str) -> (Child, PathBuf) {
+    build_nodes();
+    let dir = workspace().join("target/dataflow-tests").join(name);
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).expect("creating the test folder");
+    let yml = dir.join("graph.yml");
+    std::fs::write(&yml, localise(graph, &dir)).expect("writing the graph");
+    let child = dora_run(&dir, run_for)
         .spawn()
         .expect("starting `dora run` (is the dora CLI installed? scripts/test.sh installs it)");
     (child, dir)

@@ -90,11 +90,32 @@ pub fn env_flag(
     key: &str,
     default: bool,
 ) -> eyre::Result<bool> {
-    match lookup(key).as_deref().map(str::trim) {
-        None => Ok(default),
-        Some("true" | "yes" | "1") => Ok(true),
-        Some("false" | "no" | "0") => Ok(false),
-        Some(other) => bail!("{node}: {key}={other:?} is invalid: expected true or false"),
+    let Some(raw) = lookup(key) else {
+        return Ok(default);
+    };
+    match flag_word(&raw) {
+        Some(on) => Ok(on),
+        None => bail!("{node}: {key}={raw:?} is invalid: expected true or false"),
+    }
+}
+
+/// The words [`env_flag`] reads as on.
+pub const TRUE_WORDS: [&str; 3] = ["true", "yes", "1"];
+/// The words [`env_flag`] reads as off.
+pub const FALSE_WORDS: [&str; 3] = ["false", "no", "0"];
+
+/// `raw` (trimmed) as a switch, `None` when it is not one of [`TRUE_WORDS`] or [`FALSE_WORDS`],
+/// for a variable that is a switch or a value (`RERUN=false` or `RERUN=rrd`) and must spell
+/// its switch as every flag does.
+#[must_use]
+pub fn flag_word(raw: &str) -> Option<bool> {
+    let raw = raw.trim();
+    if TRUE_WORDS.contains(&raw) {
+        Some(true)
+    } else if FALSE_WORDS.contains(&raw) {
+        Some(false)
+    } else {
+        None
     }
 }
 
@@ -236,5 +257,8 @@ mod tests {
         assert!(!env_flag("n", &lookup, "Z", true).unwrap());
         let err = env_flag("n", &lookup, "M", true).unwrap_err().to_string();
         assert_eq!(err, r#"n: M="maybe" is invalid: expected true or false"#);
+        assert_eq!(flag_word(" no "), Some(false));
+        assert_eq!(flag_word("1"), Some(true));
+        assert_eq!(flag_word("rrd"), None);
     }
 }

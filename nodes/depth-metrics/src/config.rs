@@ -4,7 +4,7 @@
 //! |---|---|---|---|
 //! | `OUTPUT_DIR` | path | `out` | where `depth-metrics.json` (and `depth.rrd`) go |
 //! | `REPORT_EVERY_FRAMES` | integer ≥ 1 | `30` | a sensor's report is recomputed and written every N of its frames (and at the end) |
-//! | `RERUN` | `off`, `rrd`, a `.rrd` path or a `rerun+http://…/proxy` url | `off` | log the maps and scalars to rerun (`rrd` = `OUTPUT_DIR/depth.rrd`) |
+//! | `RERUN` | `off` (or any false flag word: `false`, `no`, `0`), `rrd`, a `.rrd` path or a `rerun+http://…/proxy` url | `off` | log the maps and scalars to rerun (`rrd` = `OUTPUT_DIR/depth.rrd`) |
 //! | `TARGET_DISTANCE_M` | metres | fitted | true distance of a fronto-parallel target (§3.1); otherwise a plane is fitted |
 //! | `ENTROPY_WINDOW` | frames ≥ 2 | `30` | frames per entropy window (§3.3, thesis: 30) |
 //! | `FRAME_STRIDE` | integer ≥ 1 | `30` | resolution (§3.2) and edge noise (§3.4) on every N-th frame |
@@ -14,9 +14,10 @@
 
 use std::path::PathBuf;
 
+use eyre::bail;
 use trigait_depth::MetricsParams;
 use trigait_depth_rerun::Sink;
-use trigait_node_config::env_value;
+use trigait_node_config::{env_value, flag_word};
 
 /// Env var: output folder.
 pub const OUTPUT_DIR: &str = "OUTPUT_DIR";
@@ -73,8 +74,14 @@ impl Config {
         let output_dir = PathBuf::from(lookup(OUTPUT_DIR).unwrap_or_else(|| "out".into()));
         let report_every = integer(&lookup, REPORT_EVERY_FRAMES, 30, 1)?;
         let rerun = match lookup(RERUN).as_deref().map(str::trim) {
-            None | Some("" | "off" | "false") => None,
-            Some(spec) => Some(Sink::from_spec(spec, &output_dir.join(RRD_FILE))),
+            None | Some("" | "off") => None,
+            Some(spec) => match flag_word(spec) {
+                Some(false) => None,
+                Some(true) => bail!(
+                    "{NODE}: {RERUN}={spec:?} is invalid: expected off, false, rrd, a .rrd path or a rerun+http:// url"
+                ),
+                None => Some(Sink::from_spec(spec, &output_dir.join(RRD_FILE))),
+            },
         };
         let mut params = MetricsParams {
             entropy_window: integer(&lookup, ENTROPY_WINDOW, 30, 2)?,

@@ -2,9 +2,10 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use dora_node_api::integration_testing::{TestingOptions, drain_outputs};
 use trigait_depth::sim::{Scene, SimParams, Simulator};
 use trigait_depth_rerun::Sink;
-use trigait_node_testing::lookup;
+use trigait_node_testing::{init_node, input_event, lookup, scratch_dir};
 use trigait_schema::{ArrayRef, DepthFrameMessage, Message, NtpExchange};
 
 use crate::config::Config;
@@ -109,11 +110,117 @@ fn frames_are_analysed_and_bad_ones_counted() {
     let sd = acc.temporal_sd_mm.unwrap();
     assert!((sd - expected).abs() < 0.1 * expected, "{sd}");
 
-    let dir = std::env::temp_dir().join("trigait-depth-metrics-node-test");
+    let dir = scratch_dir("depth-metrics-node-test");
     let path = dir.join("depth-metrics.json");
     sensors.write_json(&path).unwrap();
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(v["sensors"]["k1"]["frames_analysed"], 30);
     assert_eq!(v["sensors"]["k1"]["report"]["frames"], 30);
+}
+
+/// `RERUN` is off for every false word of the shared flag syntax; `true` says what it wants.
+#[test]
+fn rerun_off_words() {
+    for off in ["off", "false", "no", "0", ""] {
+        let c = Config::from_lookup(lookup(&[("RERUN", off)])).unwrap();
+        assert!(c.rerun.is_none(), "RERUN={off:?}");
+    }
+    let err = Config::from_lookup(lookup(&[("RERUN", "true")])).unwrap_err();
+    assert!(
+        err.to_string().starts_with("depth-metrics: RERUN=\"true\""),
+        "{err}"
+    );
+}
+
+/// The loop's happy path: depth frames of two simulated sensors (a wall at 2 m with 2 mm noise
+/// on `depth_k1`, one at 3 m with 4 mm on `depth_k2`, which loses frame 4) go through `run`
+/// and come out in `OUTPUT_DIR/depth-metrics.json`: every frame counted and analysed, the gap
+/// counted, a report every 5 frames and one at the end, each wall's distance fitted and its
+/// noise recovered as the temporal SD (σ with the 1 mm quantisation, √(σ² + 1/12)); a
+/// malformed message and an input that is not `depth_<sensor>` are counted, nothing else.
+#[test]
+fn depth_frames_in_report_out() {
+    let dir = scratch_dir("depth-metrics-loop");
+    let walls = [("k1", 2.0, 2.0, 1), ("k2", 3.0, 4.0, 2)];
+    let mut events = Vec::new();
+    for (k, (id, distance, noise, seed)) in walls.iter().enumerate() {
+        let params = SimParams {
+            noise_sd_mm: *noise,
+            seed: *seed,
+            ..SimParams::default()
+        };
+        let mut sim = Simulator::new(&Scene::wall(*distance), params).unwrap();
+        for seq in (0..13_u64).filter(|s| *id == "k1" || *s != 4) {
+            let message = DepthFrameMessage {
+                sensor_id: (*id).to_owned(),
+                seq,
+                local_stamp_nanos: seq as i64 * 33_333_333,
+                width: 512,
+                height: 424,
+                depth_mm: sim.next_frame().as_mm().to_vec(),
+            };
+            let t = seq as f64 * 0.004 + k as f64 * 0.002;
+            let input = format!("depth_{id}");
+            events.push(input_event(
+                &dir,
+                &format!("{id}_{seq}"),
+                t,
+                &input,
+                message.encode().unwrap(),
+            ));
+        }
+    }
+    events.push(serde_json::json!(
+        {"time_offset_secs": 0.06, "type": "Input", "id": "depth_k3", "data": [1, 2, 3]}
+    ));
+    events.push(serde_json::json!(
+        {"time_offset_secs": 0.06, "type": "Input", "id": "frame_k1", "data": [1]}
+    ));
+    events.push(serde_json::json!({"time_offset_secs": 0.07, "type": "Stop"}));
+    let (node, stream, mut rx) = init_node(
+        serde_json::json!({"id": "depth-metrics", "events": events}),
+        TestingOptions::default(),
+    );
+    let out = dir.join("out");
+    let config = Config::from_lookup(lookup(&[
+        ("OUTPUT_DIR", out.to_str().unwrap()),
+        ("REPORT_EVERY_FRAMES", "5"),
+    ]))
+    .unwrap();
+    let counters = crate::run(config, node, stream).unwrap();
+    assert_eq!(
+        (counters.analysed, counters.refused, counters.unknown),
+        (25, 1, 1)
+    );
+    assert!(drain_outputs(&mut rx).is_empty(), "the node has no outputs");
+
+    let text = std::fs::read_to_string(out.join("depth-metrics.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["report_every_frames"], 5);
+    let k3 = &v["sensors"]["k3"];
+    assert_eq!(
+        (&k3["frames_received"], &k3["malformed"]),
+        (&1.into(), &1.into())
+    );
+    for (id, distance, noise, _) in walls {
+        let e = &v["sensors"][id];
+        let frames = if id == "k1" { 13 } else { 12 };
+        assert_eq!(e["frames_received"], frames, "{id}");
+        assert_eq!(e["frames_analysed"], frames, "{id}");
+        assert_eq!(e["seq_gaps"], u64::from(id == "k2"), "{id}");
+        // At 5 and 10 frames, then the rest at the end.
+        assert_eq!(e["reports_written"], 3, "{id}");
+        assert_eq!(e["report"]["frames"], frames, "{id}");
+        let accuracy = &e["report"]["accuracy"];
+        let fitted = accuracy["target_distance_m"].as_f64().unwrap();
+        assert!((fitted - distance).abs() < 0.02, "{id}: wall at {fitted} m");
+        let sd = accuracy["temporal_sd_mm"].as_f64().unwrap();
+        let expected = (noise * noise + 1.0 / 12.0_f64).sqrt();
+        assert!(
+            (sd - expected).abs() < 0.1 * expected,
+            "{id}: temporal SD {sd} mm, injected {expected}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -16,10 +16,12 @@
 //! Port: input `fused_pose`, output `fused_pose` (the same `FusedPose` message, so the node can
 //! be put between `trilaterate` and `recorder`, or taken out, by YAML alone).
 
+use std::str::FromStr;
+
 use eyre::bail;
 use trigait_gait::filter::OneEuroParams;
 use trigait_gait::stream::{LowPassParams, StreamFilter, StreamParams};
-use trigait_node_config::env_number_where;
+use trigait_node_config::{env_number_where, env_parsed};
 
 /// Env var: filter kind.
 pub const FILTER: &str = "FILTER";
@@ -38,6 +40,28 @@ pub const MAX_GAP_SECS: &str = "MAX_GAP_SECS";
 
 const NODE: &str = "filter";
 
+/// The `FILTER` names: which causal filter, before its own keys are read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    OneEuro,
+    LowPass,
+    None,
+}
+
+impl FromStr for Kind {
+    type Err = &'static str;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "one-euro" | "one_euro" | "oneeuro" => Ok(Kind::OneEuro),
+            "lowpass" | "low-pass" | "butterworth" => Ok(Kind::LowPass),
+            "none" | "off" => Ok(Kind::None),
+            _ => Err("expected one-euro, lowpass or none \
+                 (the zero-lag Butterworth needs the whole recording: `trigait gait --filter`)"),
+        }
+    }
+}
+
 /// The node's configuration.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Config {
@@ -53,10 +77,9 @@ impl Config {
 
     /// From any lookup (tests).
     pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
-        let kind = lookup(FILTER).unwrap_or_else(|| "one-euro".into());
         let positive = |v: f64| v > 0.0;
-        let filter = match kind.trim().to_ascii_lowercase().as_str() {
-            "one-euro" | "one_euro" | "oneeuro" => {
+        let filter = match env_parsed(NODE, &lookup, FILTER, Kind::OneEuro)? {
+            Kind::OneEuro => {
                 let d = OneEuroParams::default();
                 StreamFilter::OneEuro(OneEuroParams {
                     min_cutoff_hz: env_number_where(
@@ -85,7 +108,7 @@ impl Config {
                     )?,
                 })
             }
-            "lowpass" | "low-pass" | "butterworth" => {
+            Kind::LowPass => {
                 let d = LowPassParams::default();
                 let order = env_number_where(
                     NODE,
@@ -107,11 +130,7 @@ impl Config {
                     order,
                 })
             }
-            "none" | "off" => StreamFilter::None,
-            _ => bail!(
-                "{NODE}: {FILTER}={kind:?} is invalid: expected one-euro, lowpass or none \
-                 (the zero-lag Butterworth needs the whole recording: `trigait gait --filter`)"
-            ),
+            Kind::None => StreamFilter::None,
         };
         let max_gap_secs = env_number_where(
             NODE,

@@ -8,8 +8,8 @@ use dora_node_api::serde_json;
 use nalgebra::{Matrix3, Point3};
 use trigait_gait::filter::OneEuroParams;
 use trigait_gait::stream::{LowPassParams, PoseFilter, StreamFilter};
-use trigait_node_testing::{chain, init_node, lookup};
-use trigait_schema::{FusedJoint, FusedPose};
+use trigait_node_testing::{chain, init_node, input_event, lookup, output_arrays, scratch_dir};
+use trigait_schema::{FusedJoint, FusedPose, Message};
 use trigait_skeleton::Joint;
 
 use crate::config::Config;
@@ -176,4 +176,115 @@ fn malformed_pose_is_skipped() {
     assert_eq!(counters.malformed, 1);
     assert_eq!(counters.poses_sent, 0);
     assert!(drain_outputs(&mut rx).is_empty());
+}
+
+/// The loop's happy path, checked against the closed form: with `ONE_EURO_BETA=0` the
+/// One-Euro filter is a first-order low-pass of fixed cut-off f_c, so after a 10 cm step of
+/// the knee at 30 Hz its output is 0.1·(1 − (1 − α)ᵐ) m, m poses after the step, with
+/// α = 1/(1 + τ/Δt) and τ = 1/(2π f_c) (Casiez et al. 2012). Each `fused_pose` in
+/// comes out once, in order, with its seq, stamp, covariance, sensors, diagnostics, skipped
+/// joints and missing sensors as they came in; the still hip stays where it is.
+#[test]
+fn poses_in_smoothed_poses_out() {
+    const PERIOD: i64 = 33_333_333;
+    const CUTOFF_HZ: f64 = 2.0;
+    const STEP_AT: u64 = 5;
+    let joint = |x: f64, sensors: &[&str]| FusedJoint {
+        position: Point3::new(x, 0.2, 0.5),
+        covariance: Matrix3::new(1e-4, 2e-6, 0.0, 2e-6, 3e-4, 1e-6, 0.0, 1e-6, 5e-4),
+        sensors_used: sensors.iter().map(|s| (*s).to_owned()).collect(),
+        residual_m: 0.004,
+        condition_number: 3.5,
+        estimator: "fusion".into(),
+    };
+    let poses: Vec<FusedPose> = (0..20_u64)
+        .map(|seq| {
+            let knee = if seq < STEP_AT { 0.0 } else { 0.1 };
+            FusedPose {
+                set_seq: 100 + seq,
+                stamp_nanos: 1_700_000_000_000_000_000 + seq as i64 * PERIOD,
+                joints: BTreeMap::from([
+                    (Joint::KneeLeft, joint(knee, &["k1", "k2"])),
+                    (Joint::HipLeft, joint(-0.3, &["k1", "k2", "k3"])),
+                ]),
+                skipped: BTreeMap::from([(Joint::AnkleLeft, "too few sensors".to_owned())]),
+                missing_sensors: vec!["k3".into()],
+            }
+        })
+        .collect();
+    let dir = scratch_dir("filter-loop");
+    let mut events: Vec<serde_json::Value> = poses
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let t = i as f64 * 0.002;
+            input_event(
+                &dir,
+                &format!("pose{i}"),
+                t,
+                "fused_pose",
+                p.encode().unwrap(),
+            )
+        })
+        .collect();
+    events.push(serde_json::json!({"time_offset_secs": 0.05, "type": "Stop"}));
+    let (node, events, mut rx) = init_node(
+        serde_json::json!({"id": "filter", "events": events}),
+        TestingOptions::default(),
+    );
+    let config = Config::from_lookup(lookup(&[
+        ("ONE_EURO_BETA", "0"),
+        ("ONE_EURO_MIN_CUTOFF_HZ", "2"),
+    ]))
+    .unwrap();
+    let counters = crate::run(config, node, events).unwrap();
+    assert_eq!((counters.poses_sent, counters.malformed), (20, 0));
+    let out: Vec<FusedPose> = output_arrays(&drain_outputs(&mut rx), "fused_pose")
+        .iter()
+        .map(|a| FusedPose::decode(a.as_ref()).unwrap())
+        .collect();
+    assert_eq!(out.len(), poses.len());
+
+    let tau = 1.0 / (2.0 * std::f64::consts::PI * CUTOFF_HZ);
+    let alpha = 1.0 / (1.0 + tau / (PERIOD as f64 * 1e-9));
+    for (seq, (raw, smooth)) in poses.iter().zip(&out).enumerate() {
+        assert_eq!(
+            (smooth.set_seq, smooth.stamp_nanos),
+            (raw.set_seq, raw.stamp_nanos)
+        );
+        assert_eq!(smooth.skipped, raw.skipped);
+        assert_eq!(smooth.missing_sensors, raw.missing_sensors);
+        assert_eq!(
+            smooth.joints.keys().collect::<Vec<_>>(),
+            raw.joints.keys().collect::<Vec<_>>()
+        );
+        for (j, f) in &smooth.joints {
+            let r = &raw.joints[j];
+            assert_eq!(f.covariance, r.covariance, "{j}");
+            assert_eq!(f.sensors_used, r.sensors_used, "{j}");
+            assert_eq!(
+                (f.residual_m, f.condition_number, &f.estimator),
+                (r.residual_m, r.condition_number, &r.estimator)
+            );
+            assert!((f.position.y - 0.2).abs() < 1e-12 && (f.position.z - 0.5).abs() < 1e-12);
+        }
+        let hip = smooth.joints[&Joint::HipLeft].position.x;
+        assert!((hip + 0.3).abs() < 1e-12, "seq {seq}: hip {hip}");
+        let expected = match (seq as u64).checked_sub(STEP_AT) {
+            None => 0.0,
+            Some(m) => 0.1 * (1.0 - (1.0 - alpha).powi(m as i32 + 1)),
+        };
+        let knee = smooth.joints[&Joint::KneeLeft].position.x;
+        assert!(
+            (knee - expected).abs() < 1e-9,
+            "seq {seq}: knee {knee}, closed form {expected}"
+        );
+    }
+    // The step is followed, not copied: the first pose after it is about a third of the way
+    // (α ≈ 0.295 at 2 Hz and 30 Hz), the last within 1 mm of the input.
+    let first = out[STEP_AT as usize].joints[&Joint::KneeLeft].position.x;
+    assert!((0.02..0.04).contains(&first), "{first}");
+    let last = out[19].joints[&Joint::KneeLeft].position.x;
+    assert!((0.099..0.1).contains(&last), "{last}");
+    std::fs::remove_dir_all(&dir).ok();
 }

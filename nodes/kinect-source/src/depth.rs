@@ -33,7 +33,7 @@ use trigait_depth::io::{list_pngs, read_depth_png};
 use trigait_depth::lab::{LabTarget, lab_scene};
 use trigait_depth::sim::{SimParams, Simulator};
 use trigait_depth::{HEIGHT, WIDTH};
-use trigait_node_config::{env_number, env_number_where, env_value};
+use trigait_node_config::{env_flag, env_number, env_number_where};
 use trigait_schema::{DepthFrameMessage, Message, ports};
 
 use crate::backend::{SensorClock, now_nanos};
@@ -112,8 +112,7 @@ impl DepthConfig {
         let input = match lookup(DEPTH_DIR) {
             Some(dir) => DepthInput::Dir {
                 dir: PathBuf::from(dir.trim()),
-                looped: env_value(NODE, lookup, DEPTH_LOOP, |_| true, "true or false")?
-                    .unwrap_or(true),
+                looped: env_flag(NODE, lookup, DEPTH_LOOP, true)?,
             },
             None => {
                 let scene = lookup(DEPTH_SCENE).unwrap_or_else(|| "floor".into());
@@ -418,7 +417,7 @@ mod tests {
         let c = config(&[
             ("DEPTH_RATE_HZ", "30"),
             ("DEPTH_DIR", dir),
-            ("DEPTH_LOOP", "false"),
+            ("DEPTH_LOOP", "no"),
         ]);
         let mut s = DepthStream::new(c.depth.as_ref().unwrap(), &c, 0).unwrap();
         let first = read_depth_png(&std::path::Path::new(dir).join("depth_00000.png")).unwrap();

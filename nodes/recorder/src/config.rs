@@ -5,17 +5,18 @@
 //! | `OUTPUT_DIR` | path | `out` | where `summary.json`, `trajectory.txt` (thesis format) and `trajectory.csv`/`.trc`/`.c3d` go |
 //! | `RRD` | path or `none` | `<OUTPUT_DIR>/trigait.rrd` | the rerun recording file |
 //! | `RERUN_CONNECT` | gRPC url | none | also stream to a running viewer (`rerun+http://127.0.0.1:9876/proxy`); never blocks when none is there |
-//! | `RIG` | `thesis`, `ring-N` or YAML path | `thesis` | sensor poses drawn as axes and frusta |
+//! | `RIG` | `thesis`, `ring-N` or YAML path | `thesis` | sensor poses drawn as axes and frusta; must be the sources' rig (checked against the stamp on every pose and timing; a mismatch stops the node naming both) |
 //! | `RING_CAPACITY` | integer | `1000` | positions kept per joint (thesis: 1000) for the thesis text export |
 //! | `WARMUP_SECS` | seconds ≥ 0 | `1` | poses this soon after the first are warm-up: their latency is reported apart from the steady state (`summary.json`: `warmup`) |
 //!
-//! Inputs: `fused_pose`, `frame_timing`, `ground_truth` (from the one simulated source that
-//! sends it; optional) and per source `frame_<id>` (raw joints).
+//! Inputs: `fused_pose`, `frame_timing` (every raw frame `sync` received, joints included) and
+//! `ground_truth` (from the one simulated source that sends it; optional) — the same three
+//! whatever the number of sensors.
 
 use std::path::PathBuf;
 
-use eyre::{bail, eyre};
-use trigait_node_config::{env_number_where, env_value};
+use eyre::bail;
+use trigait_node_config::{env_number_where, env_rig, env_value};
 use trigait_rig::Rig;
 
 /// Env var: output directory.
@@ -24,8 +25,6 @@ pub const OUTPUT_DIR: &str = "OUTPUT_DIR";
 pub const RRD: &str = "RRD";
 /// Env var: viewer url.
 pub const RERUN_CONNECT: &str = "RERUN_CONNECT";
-/// Env var: rig.
-pub const RIG: &str = "RIG";
 /// Env var: ring capacity.
 pub const RING_CAPACITY: &str = "RING_CAPACITY";
 /// Env var: warm-up length.
@@ -74,9 +73,7 @@ impl Config {
                 "{NODE}: {RERUN_CONNECT}={url:?} is invalid: expected a rerun gRPC proxy url like rerun+http://127.0.0.1:9876/proxy"
             );
         }
-        let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
-        let rig =
-            Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
+        let rig = env_rig(NODE, &lookup)?;
         let ring_capacity = env_value(
             NODE,
             &lookup,

@@ -13,7 +13,7 @@
 //! Inputs: `frame_<id>` and `ntp_<id>` per source, `tick` (a `dora/timer/millis/N` timer, ≤ 20 ms).
 
 use eyre::{bail, eyre};
-use trigait_node_config::{env_number_where, env_value};
+use trigait_node_config::{env_number_where, env_parsed, env_value};
 use trigait_sync::{Interpolation, Policy, SyncParams};
 
 /// Env var: policy.
@@ -65,19 +65,13 @@ impl Config {
 
     /// From any lookup (tests).
     pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
-        let mut params = SyncParams::default();
-        if let Some(raw) = lookup(POLICY) {
-            let policy: Policy = raw
-                .parse()
-                .map_err(|e| eyre!("{NODE}: {POLICY}={raw:?} is invalid: {e}"))?;
-            params = params.with_policy(policy);
-        }
-        if let Some(raw) = lookup(INTERPOLATION) {
-            let i: Interpolation = raw
-                .parse()
-                .map_err(|e| eyre!("{NODE}: {INTERPOLATION}={raw:?} is invalid: {e}"))?;
-            params = params.with_interpolation(i);
-        }
+        let defaults = SyncParams::default();
+        let policy: Policy = env_parsed(NODE, &lookup, POLICY, defaults.policy)?;
+        let interpolation: Interpolation =
+            env_parsed(NODE, &lookup, INTERPOLATION, defaults.interpolation)?;
+        let mut params = defaults
+            .with_policy(policy)
+            .with_interpolation(interpolation);
         if let Some(hz) = env_value(NODE, &lookup, FUSION_RATE_HZ, |_| true, "a rate in Hz")? {
             params = params.with_fusion_rate_hz(hz);
         }

@@ -261,6 +261,7 @@ pub fn run(
             state.rig.as_ref(),
             &mut state.counters,
         )?;
+        state.send_timings(&mut node)?;
     }
     let c = state.buffer.counters();
     info!(
@@ -309,17 +310,22 @@ impl State {
             self.rig.as_ref(),
             &mut self.counters,
         )?;
-        if !self.timings.is_empty() {
-            let array =
-                FrameTiming::encode_many(&self.timings).context("encoding frame timings")?;
-            let mut params = MetadataParameters::default();
-            if let Some(rig) = &self.rig {
-                rig.insert_into(&mut params);
-            }
-            node.send_output(self.out.timing.clone(), params, array)
-                .context("sync: sending frame_timing")?;
-            self.timings.clear();
+        self.send_timings(node)
+    }
+
+    /// Sends the frame timings gathered since the last send, if any.
+    fn send_timings(&mut self, node: &mut DoraNode) -> eyre::Result<()> {
+        if self.timings.is_empty() {
+            return Ok(());
         }
+        let array = FrameTiming::encode_many(&self.timings).context("encoding frame timings")?;
+        let mut params = MetadataParameters::default();
+        if let Some(rig) = &self.rig {
+            rig.insert_into(&mut params);
+        }
+        node.send_output(self.out.timing.clone(), params, array)
+            .context("sync: sending frame_timing")?;
+        self.timings.clear();
         Ok(())
     }
 

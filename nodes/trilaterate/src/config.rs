@@ -7,8 +7,7 @@
 //! | `RIG` | `thesis`, `ring-N` or a YAML path | `thesis` | sensor poses (must match the sources') |
 //! | `RESAMPLING_WEIGHTS` | bool | `true` | widen each observation's covariance by `sync`'s resampling-error estimate ([`trigait_fusion`]) |
 
-use eyre::eyre;
-use trigait_node_config::env_flag;
+use trigait_node_config::{env_flag, env_parsed, env_rig};
 use trigait_rig::Rig;
 use trigait_trilateration::{Method, Params};
 
@@ -16,8 +15,6 @@ use trigait_trilateration::{Method, Params};
 pub const METHOD: &str = "METHOD";
 /// Env var: robust.
 pub const ROBUST: &str = "ROBUST";
-/// Env var: rig.
-pub const RIG: &str = "RIG";
 /// Env var: resampling weights.
 pub const RESAMPLING_WEIGHTS: &str = "RESAMPLING_WEIGHTS";
 
@@ -42,18 +39,10 @@ impl Config {
 
     /// From any lookup (tests).
     pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
-        let method_name = lookup(METHOD).unwrap_or_else(|| "fusion".into());
-        let method: Method = method_name.parse().map_err(|e| {
-            eyre!(
-                "{NODE}: {METHOD}={method_name:?} is invalid: {e} (expected one of {})",
-                Method::ALL.map(Method::name).join(", ")
-            )
-        })?;
+        let method = env_parsed(NODE, &lookup, METHOD, Method::Fusion)?;
         let robust = env_flag(NODE, &lookup, ROBUST, false)?;
         let resampling_weights = env_flag(NODE, &lookup, RESAMPLING_WEIGHTS, true)?;
-        let rig_spec = lookup(RIG).unwrap_or_else(|| "thesis".into());
-        let rig =
-            Rig::from_spec(&rig_spec).map_err(|e| eyre!("{NODE}: {RIG}={rig_spec:?}: {e}"))?;
+        let rig = env_rig(NODE, &lookup)?;
         Ok(Config {
             params: Params::new(method).with_robust(robust),
             rig,

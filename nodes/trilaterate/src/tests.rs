@@ -7,8 +7,9 @@ use std::collections::BTreeMap;
 use dora_node_api::integration_testing::{TestingOptions, drain_outputs};
 use dora_node_api::serde_json;
 use nalgebra::Point3;
-use trigait_node_testing::{arrow_file, chain, init_node, lookup};
+use trigait_node_testing::{arrow_file, chain, init_node, lookup, output_arrays, scratch_dir};
 use trigait_rig::Rig;
+use trigait_schema::{FusedPose, Message};
 use trigait_skeleton::{Joint, JointSample, TrackingState};
 use trigait_sync::{AlignedSet, Policy, SensorView};
 use trigait_trilateration::Method;
@@ -40,8 +41,7 @@ fn config_errors_name_node_key_and_value() {
             "{text}"
         );
     }
-    let dir = std::env::temp_dir().join(format!("trigait-trilaterate-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("trilaterate-test");
     let rig = dir.join("bad-rig.yml");
     std::fs::write(&rig, "sensors:\n  - id: a\n    position: [0, 0]\n").unwrap();
     let text = chain(&Config::from_lookup(lookup(&[("RIG", rig.to_str().unwrap())])).unwrap_err());
@@ -225,7 +225,6 @@ fn malformed_set_is_skipped() {
 #[test]
 fn node_and_eval_fuse_identically() {
     use trigait_kinect::NoiseModel;
-    use trigait_schema::Message;
     use trigait_sim::Simulator;
 
     let rig = Rig::from_spec("thesis").unwrap();
@@ -294,10 +293,10 @@ fn node_and_eval_fuse_identically() {
 }
 
 /// The loop's happy path: an aligned set in on `aligned_set` comes out as one `fused_pose`
-/// carrying the set's metadata, its joints fused.
+/// carrying the set's seq, stamp and missing sensor, its knee fused at the truth from all
+/// three sensors.
 #[test]
 fn aligned_set_in_fused_pose_out() {
-    use trigait_schema::Message;
     let rig = Rig::from_spec("thesis").unwrap();
     let knee = Point3::new(0.3, 0.1, 0.5);
     let sensors: BTreeMap<String, SensorView> = rig
@@ -320,8 +319,7 @@ fn aligned_set_in_fused_pose_out() {
         missing: vec!["k4".into()],
         time_uncertainty_nanos: 0,
     };
-    let dir = std::env::temp_dir().join(format!("trigait-trilaterate-loop-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("trilaterate-loop");
     let file = arrow_file(&dir, "set", set.encode().unwrap());
     let (node, events, mut rx) = init_node(
         serde_json::json!({
@@ -337,10 +335,18 @@ fn aligned_set_in_fused_pose_out() {
     assert_eq!((counters.poses_sent, counters.joints_fused), (1, 1));
     assert_eq!(counters.malformed, 0);
     let outputs = drain_outputs(&mut rx);
-    let poses: Vec<_> = outputs
+    let poses: Vec<FusedPose> = output_arrays(&outputs, "fused_pose")
         .iter()
-        .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some("fused_pose"))
+        .map(|a| FusedPose::decode(a.as_ref()).unwrap())
         .collect();
     assert_eq!(poses.len(), 1, "{outputs:?}");
+    let pose = &poses[0];
+    assert_eq!((pose.set_seq, pose.stamp_nanos), (0, 5));
+    assert_eq!(pose.missing_sensors, ["k4"]);
+    assert!(pose.skipped.is_empty(), "{:?}", pose.skipped);
+    let k = &pose.joints[&Joint::KneeLeft];
+    assert!((k.position - knee).norm() < 1e-6, "{}", k.position);
+    assert_eq!(k.sensors_used, ["k1", "k2", "k3"]);
+    assert_eq!(k.estimator, "fusion");
     std::fs::remove_dir_all(&dir).ok();
 }

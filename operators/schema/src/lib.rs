@@ -11,7 +11,10 @@
 //! | `ground_truth` | one simulated `kinect-source → recorder` | [`GroundTruth`] (world frame, once per true instant) |
 //! | `depth_frame` | `kinect-source → depth-metrics` | [`DepthFrameMessage`] |
 //!
-//! Port ids and metadata keys are in [`ports`].
+//! Port ids and metadata keys are in [`ports`]. `MESSAGES.md` beside this crate's `Cargo.toml`
+//! describes every message language-neutrally (a table per message: field, Arrow type,
+//! nullability, unit, frame), for stages written in other languages; a test keeps it in step
+//! with the types here.
 //!
 //! Every message is a `StructArray` with **one row per message** (a node sends one row; a
 //! recording may hold many), nested with `List<Struct>` for joints and sensors. Points are
@@ -36,6 +39,8 @@ mod aligned;
 mod codec;
 mod depth;
 mod fused;
+#[cfg(test)]
+mod messages_md;
 mod ntp;
 pub mod ports;
 mod skeleton;

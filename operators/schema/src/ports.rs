@@ -67,6 +67,16 @@ pub const RIG_NAME: &str = "trigait.rig_name";
 /// Metadata key (string): the node whose `RIG` it is (`k1`), for errors.
 pub const RIG_NODE: &str = "trigait.rig_node";
 
+/// Every metadata key above (the message reference documents each).
+pub const METADATA_KEYS: &[&str] = &[
+    SENT_NANOS,
+    TRUE_STAMP_NANOS,
+    TRIGGER_SENT_NANOS,
+    RIG_FINGERPRINT,
+    RIG_NAME,
+    RIG_NODE,
+];
+
 /// The sensor id of a `sync`/`recorder` input id with `prefix` (`frame_k1` → `k1`).
 #[must_use]
 pub fn sensor_of<'a>(input_id: &'a str, prefix: &str) -> Option<&'a str> {
