@@ -18,7 +18,10 @@
 //! timestamp: dora stamps every line it captures.
 //!
 //! The filter comes from `RUST_LOG` (`RUST_LOG=debug`, `RUST_LOG=info,trigait_sync_node=debug`)
-//! and is [`DEFAULT_FILTER`] when `RUST_LOG` is unset or unreadable. Colours are used only
+//! and is [`DEFAULT_FILTER`] when `RUST_LOG` is unset or unreadable. A few warnings of dora and
+//! zenoh are diagnostics, not faults, and came from every node at every start ([`DEMOTED`]: the
+//! tracing of dora's first large sends, zenoh's scouting delay); they are treated as `debug`,
+//! shown only when `RUST_LOG` lets `debug` through somewhere. Colours are used only
 //! when stderr is a terminal. Records of the `log` crate (rerun logs through it) are
 //! forwarded to the same subscriber.
 //!
@@ -38,16 +41,48 @@ use std::io::IsTerminal;
 
 use dora_node_api::EventStream;
 use dora_node_api::dora_core::config::DataId;
+use tracing::field::{Field, Visit};
+use tracing::level_filters::LevelFilter;
 use tracing::{Event, Level, Subscriber};
 use tracing_subscriber::EnvFilter;
 use tracing_subscriber::fmt::format::Writer;
 use tracing_subscriber::fmt::{FmtContext, FormatEvent, FormatFields, MakeWriter};
+use tracing_subscriber::layer::{Context, Layer, SubscriberExt};
 use tracing_subscriber::registry::LookupSpan;
 use tracing_subscriber::util::SubscriberInitExt;
 
 /// The filter when `RUST_LOG` is unset: our warnings and summaries, and zenoh (dora's
 /// transport, chatty at `info`) only when something goes wrong.
 pub const DEFAULT_FILTER: &str = "info,zenoh=warn";
+
+/// A warning another crate logs that is a diagnostic, not a fault: events of a target starting
+/// with `target` whose message contains `contains`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Demoted {
+    /// Target prefix (`dora_node_api`).
+    pub target: &'static str,
+    /// Part of the message.
+    pub contains: &'static str,
+}
+
+/// The warnings treated as `debug`. Matched on their text, because they share their target
+/// with real warnings (`dora_node_api::node` also says when a publish failed and a message was
+/// dropped, zenoh's orchestrator when it cannot connect):
+/// - dora-node-api 1.1 traces each hop of a node's first three large sends at `warn`, tagged
+///   `diagnostic` with the number of the dora issue it investigates (a Windows-only stall): six
+///   to nine lines per output of every graph;
+/// - zenoh warns in every process that its scouting delay elapsed before its start conditions
+///   were met, which on one host (no peers to find) is always the case.
+pub const DEMOTED: &[Demoted] = &[
+    Demoted {
+        target: "dora_node_api",
+        contains: "#2742 diagnostic)",
+    },
+    Demoted {
+        target: "zenoh::net::runtime::orchestrator",
+        contains: "Scouting delay elapsed before start conditions are met",
+    },
+];
 
 /// Installs the process's subscriber: one line per event on stderr, starting with the level
 /// and `node` (`"sync"`, `"kinect-source k2"`), filtered by `RUST_LOG` (default
@@ -74,7 +109,8 @@ pub fn filter(rust_log: Option<&str>) -> EnvFilter {
         .unwrap_or_else(|| EnvFilter::new(DEFAULT_FILTER))
 }
 
-/// The subscriber [`init`] installs, writing to `writer` (tests pass a buffer).
+/// The subscriber [`init`] installs, writing to `writer` (tests pass a buffer). The [`DEMOTED`]
+/// warnings pass only if `filter` lets `debug` through for some target.
 pub fn subscriber<W>(
     node: &str,
     filter: EnvFilter,
@@ -84,6 +120,11 @@ pub fn subscriber<W>(
 where
     W: for<'w> MakeWriter<'w> + Send + Sync + 'static,
 {
+    let demote = Demote {
+        show: filter
+            .max_level_hint()
+            .is_some_and(|max| max >= LevelFilter::DEBUG),
+    };
     tracing_subscriber::fmt()
         .with_writer(writer)
         .with_ansi(ansi)
@@ -92,6 +133,53 @@ where
         })
         .with_env_filter(filter)
         .finish()
+        .with(demote)
+}
+
+/// Drops the [`DEMOTED`] events unless `show`.
+struct Demote {
+    show: bool,
+}
+
+impl<S: Subscriber> Layer<S> for Demote {
+    fn event_enabled(&self, event: &Event<'_>, _ctx: Context<'_, S>) -> bool {
+        self.show || !is_demoted(event)
+    }
+}
+
+/// Whether `event` is one of the [`DEMOTED`] (errors never are).
+fn is_demoted(event: &Event<'_>) -> bool {
+    let meta = event.metadata();
+    if *meta.level() == Level::ERROR {
+        return false;
+    }
+    let mut candidates = DEMOTED
+        .iter()
+        .filter(|d| meta.target().starts_with(d.target))
+        .peekable();
+    if candidates.peek().is_none() {
+        return false;
+    }
+    let mut message = Message(String::new());
+    event.record(&mut message);
+    candidates.any(|d| message.0.contains(d.contains))
+}
+
+/// The `message` field of an event, as text.
+struct Message(String);
+
+impl Visit for Message {
+    fn record_str(&mut self, field: &Field, value: &str) {
+        if field.name() == "message" {
+            value.clone_into(&mut self.0);
+        }
+    }
+
+    fn record_debug(&mut self, field: &Field, value: &dyn fmt::Debug) {
+        if field.name() == "message" {
+            self.0 = format!("{value:?}");
+        }
+    }
 }
 
 /// Logs a warning for every input on which dora dropped messages since the last call (queue
@@ -228,5 +316,55 @@ mod tests {
         let debug = logged(Some("debug"), emit);
         assert!(debug.contains("debug line"), "{debug}");
         assert!(debug.contains("zenoh info"), "{debug}");
+    }
+
+    /// dora's send diagnostics and zenoh's scouting delay are hidden by default and shown when
+    /// `RUST_LOG` asks for `debug`; dora's and zenoh's other warnings, ours, and any error with
+    /// the same words stay visible.
+    #[test]
+    fn diagnostics_are_debug_real_warnings_stay() {
+        let emit = || {
+            let output = "ground_truth";
+            tracing::warn!(
+                target: "dora_node_api::node",
+                "output `{output}`: 4296 B -> zenoh direct path (dora-rs/dora#2742 diagnostic)"
+            );
+            tracing::warn!(
+                target: "zenoh::net::runtime::orchestrator",
+                "Scouting delay elapsed before start conditions are met."
+            );
+            tracing::warn!(
+                target: "dora_node_api::node",
+                "zenoh publish failed (closed); message dropped"
+            );
+            tracing::warn!(
+                target: "dora_node_api::event_stream",
+                input = %"frame_k1",
+                "discarding buffered input due to queue size limit"
+            );
+            tracing::warn!(target: "zenoh::net::runtime::orchestrator", "Unable to connect");
+            tracing::error!(
+                target: "dora_node_api::node",
+                "send stalled (dora-rs/dora#2742 diagnostic)"
+            );
+            tracing::warn!("source stopped");
+        };
+        let default = logged(None, emit);
+        assert!(!default.contains("zenoh direct path"), "{default}");
+        assert!(!default.contains("Scouting delay"), "{default}");
+        for real in [
+            "message dropped",
+            "discarding buffered input due to queue size limit input=frame_k1",
+            "Unable to connect",
+            "ERROR kinect-source k2: dora_node_api::node: send stalled",
+            "WARN kinect-source k2: source stopped",
+        ] {
+            assert!(default.contains(real), "{real}: {default}");
+        }
+        assert_eq!(default.lines().count(), 5, "{default}");
+        let debug = logged(Some("info,trigait_sync_node=debug"), emit);
+        assert!(debug.contains("zenoh direct path"), "{debug}");
+        assert!(debug.contains("Scouting delay"), "{debug}");
+        assert_eq!(debug.lines().count(), 7, "{debug}");
     }
 }

@@ -3,7 +3,6 @@
 //! themselves are [`trigait_sim::stream`]; this module builds the configured one.
 
 use eyre::{Context, bail, eyre};
-use trigait_rig::Rig;
 use trigait_sim::clock::SimClock;
 use trigait_sim::stream::{ReplayedSensor, SimulatedSensor, SimulatedSensorParams};
 use trigait_skeleton::{Joint, MotionClip};
@@ -29,12 +28,17 @@ pub fn now_nanos() -> i64 {
         .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
 }
 
-/// The sensor clock `config` asks for, drifting from host time `start_nanos`.
+/// The sensor clock `config` asks for, drifting from host time `start_nanos` and stepped, if
+/// `config` schedules a step, that long after it.
 #[must_use]
 pub fn sensor_clock(config: &Config, start_nanos: i64) -> SensorClock {
+    let mut clock = SimClock::new(config.clock_offset_nanos, config.clock_drift_ppm)
+        .with_jitter_nanos(config.clock_jitter_nanos);
+    if let Some(step) = config.clock_step {
+        clock = clock.with_step_at(step.after_start_nanos, step.step_nanos);
+    }
     SensorClock::new(
-        SimClock::new(config.clock_offset_nanos, config.clock_drift_ppm)
-            .with_jitter_nanos(config.clock_jitter_nanos),
+        clock,
         start_nanos,
         trigait_sim::Simulator::sensor_rng(config.seed ^ 0x5eed_c10c, 0),
     )
@@ -45,8 +49,6 @@ impl Source {
     pub fn new(config: &Config, now: i64) -> eyre::Result<Self> {
         match &config.backend {
             Backend::Sim { motion, walk_secs } => {
-                let rig = Rig::from_spec(&config.rig)
-                    .map_err(|e| eyre!("kinect-source: {}={:?}: {e}", config::RIG, config.rig))?;
                 let lap = load_lap(motion, *walk_secs, config.all_joints)
                     .with_context(|| format!("kinect-source: {}={motion:?}", config::MOTION))?;
                 let params = SimulatedSensorParams {
@@ -61,7 +63,7 @@ impl Source {
                     phase_nanos: config.frame_phase_nanos,
                     ground_truth: config.ground_truth,
                 };
-                let sensor = SimulatedSensor::new(&rig, lap, &params, now).map_err(|e| {
+                let sensor = SimulatedSensor::new(&config.rig, lap, &params, now).map_err(|e| {
                     eyre!(
                         "kinect-source: {}={:?}, {}={:?}: {e}",
                         config::SENSOR_ID,

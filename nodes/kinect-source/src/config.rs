@@ -14,6 +14,8 @@
 //! | `CLOCK_OFFSET_MILLIS` | ms | `0` | simulated clock offset to the server |
 //! | `CLOCK_DRIFT_PPM` | ppm | `0` | simulated clock drift |
 //! | `CLOCK_JITTER_MICROS` | µs | `20` | σ of every clock reading |
+//! | `CLOCK_STEP_AT_SECS` | seconds ≥ 0 | none | set the simulated clock by `CLOCK_STEP_MILLIS` this long after the source starts (an NTP daemon or a person stepping the sensor PC's clock); `sim` and `replay` |
+//! | `CLOCK_STEP_MILLIS` | ms | required with `CLOCK_STEP_AT_SECS` | the step (positive: the clock jumps forward), at most ±1 h |
 //! | `REPLAY_FILE` | path | required for `replay` | Kinect v2 SDK skeleton text file (either format) |
 //! | `REPLAY_SPEED` | `realtime` or `fast` | `realtime` | play at 30 Hz or as fast as possible |
 //! | `REPLAY_LOOP` | bool | `true` | start over at the end of the file |
@@ -21,16 +23,19 @@
 //! | `STOP_AFTER_FRAMES` | integer | none | stop after this many frames (tests: a source dying mid-run) |
 //! | `STOP_AFTER_SECS` | seconds > 0 | none | stop this long after the first frame; when every source of a graph does, the graph ends on its own and every set reaches the recorder (a `dora stop` cannot promise that: nothing sent after a stop is delivered) |
 //! | `DEPTH_RATE_HZ`, `DEPTH_*` | | off | the optional `depth` output: [`crate::depth`] |
+//!
+//! The rig is read and checked here, once (a missing file or a bad YAML stops the node before
+//! it connects to dora).
 
 use std::path::PathBuf;
+use std::str::FromStr;
 
 use eyre::{bail, eyre};
-use trigait_node_config::{env_flag, env_number, env_number_where, env_value};
+use trigait_node_config::{env_flag, env_number, env_number_where, env_parsed, env_rig, env_value};
+use trigait_rig::Rig;
 
 /// Env var names.
 pub const SENSOR_ID: &str = "SENSOR_ID";
-/// Env var: rig.
-pub const RIG: &str = "RIG";
 /// Env var: backend.
 pub const BACKEND: &str = "BACKEND";
 /// Env var: motion.
@@ -57,6 +62,10 @@ pub const REPLAY_FILE: &str = "REPLAY_FILE";
 pub const REPLAY_SPEED: &str = "REPLAY_SPEED";
 /// Env var: replay loop.
 pub const REPLAY_LOOP: &str = "REPLAY_LOOP";
+/// Env var: when the simulated clock steps, seconds after the source starts.
+pub const CLOCK_STEP_AT_SECS: &str = "CLOCK_STEP_AT_SECS";
+/// Env var: the simulated clock step, ms.
+pub const CLOCK_STEP_MILLIS: &str = "CLOCK_STEP_MILLIS";
 /// Env var: stop after N frames.
 pub const STOP_AFTER_FRAMES: &str = "STOP_AFTER_FRAMES";
 /// Env var: stop this many seconds after the first frame.
@@ -87,13 +96,89 @@ pub enum Backend {
     Freenect2,
 }
 
+/// The value of `BACKEND`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BackendName {
+    /// `sim`.
+    Sim,
+    /// `replay`.
+    Replay,
+    /// `freenect2`.
+    Freenect2,
+}
+
+impl FromStr for BackendName {
+    type Err = &'static str;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "sim" => Ok(Self::Sim),
+            "replay" => Ok(Self::Replay),
+            "freenect2" => Ok(Self::Freenect2),
+            _ => Err("expected `sim`, `replay` or `freenect2`"),
+        }
+    }
+}
+
+/// The value of `JOINTS`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JointSet {
+    /// `legs`: the joints the thesis tracks.
+    Legs,
+    /// `all`: the 25 Kinect v2 joints.
+    All,
+}
+
+impl FromStr for JointSet {
+    type Err = &'static str;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "legs" => Ok(Self::Legs),
+            "all" => Ok(Self::All),
+            _ => Err("expected `legs` or `all`"),
+        }
+    }
+}
+
+/// The value of `REPLAY_SPEED`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReplaySpeed {
+    /// `realtime`: at the frame rate.
+    Realtime,
+    /// `fast`: as fast as possible.
+    Fast,
+}
+
+impl FromStr for ReplaySpeed {
+    type Err = &'static str;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "realtime" => Ok(Self::Realtime),
+            "fast" => Ok(Self::Fast),
+            _ => Err("expected `realtime` or `fast`"),
+        }
+    }
+}
+
+/// A step of the simulated sensor clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ClockStep {
+    /// When, ns after the source starts.
+    pub after_start_nanos: i64,
+    /// How far, ns (positive: forward).
+    pub step_nanos: i64,
+}
+
+/// The largest clock step accepted, ms (an hour: beyond that the simulation tests nothing the
+/// filter does not already treat as a step).
+const MAX_STEP_MILLIS: f64 = 3_600_000.0;
+
 /// The node's configuration.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Config {
     /// Sensor id.
     pub sensor_id: String,
-    /// Rig spec.
-    pub rig: String,
+    /// The rig, read from `RIG`.
+    pub rig: Rig,
     /// Backend.
     pub backend: Backend,
     /// Report all 25 joints instead of the legs.
@@ -110,6 +195,8 @@ pub struct Config {
     pub clock_drift_ppm: f64,
     /// Clock jitter σ, ns.
     pub clock_jitter_nanos: f64,
+    /// A scheduled clock step (`None`: the clock never steps).
+    pub clock_step: Option<ClockStep>,
     /// Stop after this many frames.
     pub stop_after_frames: Option<u64>,
     /// Stop this long after the first frame, ns.
@@ -135,10 +222,9 @@ impl Config {
             .ok_or_else(|| eyre!("{NODE}: {SENSOR_ID} is required (the sensor's id in the rig)"))?
             .trim()
             .to_owned();
-        let rig = lookup(RIG).unwrap_or_else(|| "thesis".into());
-        let backend_name = lookup(BACKEND).unwrap_or_else(|| "sim".into());
-        let backend = match backend_name.trim() {
-            "sim" => Backend::Sim {
+        let rig = env_rig(NODE, &lookup)?;
+        let backend = match env_parsed(NODE, &lookup, BACKEND, BackendName::Sim)? {
+            BackendName::Sim => Backend::Sim {
                 motion: lookup(MOTION).unwrap_or_else(|| "walker".into()),
                 walk_secs: env_number_where(
                     NODE,
@@ -149,29 +235,17 @@ impl Config {
                     "a duration above 0.5 s",
                 )?,
             },
-            "replay" => Backend::Replay {
+            BackendName::Replay => Backend::Replay {
                 file: lookup(REPLAY_FILE).map(PathBuf::from).ok_or_else(|| {
                     eyre!("{NODE}: {REPLAY_FILE} is required with {BACKEND}=replay")
                 })?,
-                fast: match lookup(REPLAY_SPEED).as_deref().map(str::trim) {
-                    None | Some("realtime") => false,
-                    Some("fast") => true,
-                    Some(other) => bail!(
-                        "{NODE}: {REPLAY_SPEED}={other:?} is invalid: expected `realtime` or `fast`"
-                    ),
-                },
+                fast: env_parsed(NODE, &lookup, REPLAY_SPEED, ReplaySpeed::Realtime)?
+                    == ReplaySpeed::Fast,
                 looped: env_flag(NODE, &lookup, REPLAY_LOOP, true)?,
             },
-            "freenect2" => Backend::Freenect2,
-            other => bail!(
-                "{NODE}: {BACKEND}={other:?} is invalid: expected `sim`, `replay` or `freenect2`"
-            ),
+            BackendName::Freenect2 => Backend::Freenect2,
         };
-        let all_joints = match lookup(JOINTS).as_deref().map(str::trim) {
-            None | Some("legs") => false,
-            Some("all") => true,
-            Some(other) => bail!("{NODE}: {JOINTS}={other:?} is invalid: expected `legs` or `all`"),
-        };
+        let all_joints = env_parsed(NODE, &lookup, JOINTS, JointSet::Legs)? == JointSet::All;
         let frame_rate_hz = env_number_where(
             NODE,
             &lookup,
@@ -204,6 +278,7 @@ impl Config {
             |v| v >= 0.0,
             "a number of microseconds ≥ 0",
         )?;
+        let clock_step = clock_step(&lookup)?;
         let stop_after_frames = env_value(
             NODE,
             &lookup,
@@ -229,6 +304,7 @@ impl Config {
             clock_offset_nanos: (offset * 1e6).round() as i64,
             clock_drift_ppm: drift,
             clock_jitter_nanos: jitter * 1e3,
+            clock_step,
             stop_after_frames,
             stop_after_nanos: stop_after_secs.map(|s| (s * 1e9).round() as i64),
             ground_truth: lookup(GROUND_TRUTH)
@@ -243,5 +319,36 @@ impl Config {
     #[must_use]
     pub fn period_nanos(&self) -> i64 {
         (1e9 / self.frame_rate_hz).round() as i64
+    }
+}
+
+/// `CLOCK_STEP_AT_SECS` and `CLOCK_STEP_MILLIS`: both or neither.
+fn clock_step(lookup: &impl Fn(&str) -> Option<String>) -> eyre::Result<Option<ClockStep>> {
+    let at = env_value(
+        NODE,
+        lookup,
+        CLOCK_STEP_AT_SECS,
+        |v: &f64| v.is_finite() && *v >= 0.0 && *v <= 1e6,
+        "a number of seconds within 0–1000000",
+    )?;
+    let step = env_value(
+        NODE,
+        lookup,
+        CLOCK_STEP_MILLIS,
+        |v: &f64| v.is_finite() && v.abs() <= MAX_STEP_MILLIS,
+        "a step in ms within ±3600000 (an hour)",
+    )?;
+    match (at, step) {
+        (None, None) => Ok(None),
+        (Some(at), Some(ms)) => Ok(Some(ClockStep {
+            after_start_nanos: (at * 1e9).round() as i64,
+            step_nanos: (ms * 1e6).round() as i64,
+        })),
+        (Some(_), None) => {
+            bail!("{NODE}: {CLOCK_STEP_AT_SECS} is set but {CLOCK_STEP_MILLIS} (the step) is not")
+        }
+        (None, Some(_)) => {
+            bail!("{NODE}: {CLOCK_STEP_MILLIS} is set but {CLOCK_STEP_AT_SECS} (when) is not")
+        }
     }
 }

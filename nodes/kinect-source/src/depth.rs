@@ -34,7 +34,6 @@ use trigait_depth::lab::{LabTarget, lab_scene};
 use trigait_depth::sim::{SimParams, Simulator};
 use trigait_depth::{HEIGHT, WIDTH};
 use trigait_node_config::{env_flag, env_number, env_number_where};
-use trigait_rig::Rig;
 use trigait_schema::{DepthFrameMessage, Message, ports};
 
 use crate::backend::{SensorClock, now_nanos};
@@ -175,9 +174,8 @@ impl DepthStream {
                 ring_amplitude_mm,
                 ring_period_px,
             } => {
-                let rig = Rig::from_spec(&config.rig)
-                    .map_err(|e| eyre!("{NODE}: RIG={:?}: {e}", config.rig))?;
-                let pose = rig
+                let pose = config
+                    .rig
                     .sensors
                     .iter()
                     .find(|s| s.id == config.sensor_id)
@@ -185,7 +183,7 @@ impl DepthStream {
                         eyre!(
                             "{NODE}: SENSOR_ID={:?} is not in the rig {:?} (needed to place the depth scene)",
                             config.sensor_id,
-                            config.rig
+                            config.rig.name
                         )
                     })?
                     .world_from_kinect;

@@ -66,9 +66,7 @@ pub fn run(
         .transpose()?;
     let mut clock = sensor_clock(&config, now_nanos());
     let mut counters = Counters::default();
-    let rig = trigait_rig::Rig::from_spec(&config.rig)
-        .map_err(|e| eyre::eyre!("kinect-source: {}={:?}: {e}", config::RIG, config.rig))?;
-    let stamp = RigStamp::new(&config.sensor_id, &rig);
+    let stamp = RigStamp::new(&config.sensor_id, &config.rig);
     let mut first_frame_nanos = None;
     loop {
         while let Some(due) = source.next_due().filter(|due| *due <= now_nanos()) {

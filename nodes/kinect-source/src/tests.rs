@@ -19,7 +19,8 @@ use trigait_sim::stream::TRUTH_STEP_NANOS;
 fn config_defaults() {
     let c = Config::from_lookup(lookup(&[("SENSOR_ID", "k2")])).unwrap();
     assert_eq!(c.sensor_id, "k2");
-    assert_eq!(c.rig, "thesis");
+    assert_eq!(c.rig.name, "thesis");
+    assert_eq!(c.clock_step, None);
     assert!(matches!(c.backend, Backend::Sim { .. }));
     assert_eq!(c.period_nanos(), 33_333_333);
     assert_eq!(c.frame_phase_nanos, None);
@@ -40,10 +41,16 @@ fn config_errors_name_node_key_and_value() {
         ("FRAME_RATE_HZ", "0"),
         ("JOINTS", "arms"),
         ("REPLAY_SPEED", "slow"),
+        ("RIG", "/no/such/rig.yml"),
+        ("CLOCK_STEP_AT_SECS", "-1"),
+        ("CLOCK_STEP_MILLIS", "1e12"),
     ] {
         let mut pairs = vec![("SENSOR_ID", "k1"), (key, raw)];
         if key == "REPLAY_SPEED" {
             pairs.extend([("BACKEND", "replay"), ("REPLAY_FILE", "x.txt")]);
+        }
+        if key.starts_with("CLOCK_STEP") {
+            pairs.extend([("CLOCK_STEP_AT_SECS", "5"), ("CLOCK_STEP_MILLIS", "1000")]);
         }
         let err = Config::from_lookup(lookup(&pairs)).unwrap_err();
         let text = chain(&err);
@@ -53,6 +60,57 @@ fn config_errors_name_node_key_and_value() {
         );
         assert!(text.contains(raw), "{text}");
     }
+}
+
+/// A clock step needs both its keys; alone, either one is an error naming both.
+#[test]
+fn clock_step_needs_both_keys() {
+    for (key, other) in [
+        ("CLOCK_STEP_AT_SECS", "CLOCK_STEP_MILLIS"),
+        ("CLOCK_STEP_MILLIS", "CLOCK_STEP_AT_SECS"),
+    ] {
+        let err = Config::from_lookup(lookup(&[("SENSOR_ID", "k1"), (key, "3")])).unwrap_err();
+        let text = chain(&err);
+        assert!(
+            text.contains("kinect-source") && text.contains(key) && text.contains(other),
+            "{text}"
+        );
+    }
+}
+
+/// `CLOCK_STEP_AT_SECS=0.5`, `CLOCK_STEP_MILLIS=1000`: frames captured before half a second
+/// after the start carry the unstepped clock, those after it read 1 s later; the true capture
+/// instant is unchanged.
+#[test]
+fn clock_step_moves_the_stamps() {
+    let c = Config::from_lookup(lookup(&[
+        ("SENSOR_ID", "k1"),
+        ("CLOCK_OFFSET_MILLIS", "7"),
+        ("CLOCK_JITTER_MICROS", "0"),
+        ("CLOCK_STEP_AT_SECS", "0.5"),
+        ("CLOCK_STEP_MILLIS", "1000"),
+    ]))
+    .unwrap();
+    let start = 1_700_000_000_000_000_000;
+    let mut source = Source::new(&c, start).unwrap();
+    let mut clock = sensor_clock(&c, start);
+    let (mut before, mut after) = (0, 0);
+    for _ in 0..30 {
+        let due = source.next_due().unwrap();
+        let cap = source.capture(due, &mut clock).unwrap();
+        let off = cap.frame.local_stamp_nanos - cap.true_stamp_nanos.unwrap();
+        if due - start < 500_000_000 {
+            assert_eq!(off, 7_000_000, "before the step");
+            before += 1;
+        } else {
+            assert_eq!(off, 1_007_000_000, "after the step");
+            after += 1;
+        }
+    }
+    assert!(
+        before >= 14 && after >= 14,
+        "{before} before, {after} after"
+    );
 }
 
 /// A sensor id the rig lacks and an unreadable replay file are fatal and say which key.
@@ -73,9 +131,13 @@ fn backend_errors_name_the_key() {
         "{}",
         chain(&err)
     );
-    let c =
-        Config::from_lookup(lookup(&[("SENSOR_ID", "k1"), ("RIG", "/no/such/rig.yml")])).unwrap();
-    assert!(chain(&Source::new(&c, 0).unwrap_err()).contains("RIG="));
+    let err = Config::from_lookup(lookup(&[("SENSOR_ID", "k1"), ("RIG", "/no/such/rig.yml")]))
+        .unwrap_err();
+    assert!(
+        chain(&err).contains("kinect-source: RIG="),
+        "{}",
+        chain(&err)
+    );
 }
 
 /// Without the cargo feature, `freenect2` is a clear error, not a silent stub.

@@ -55,7 +55,17 @@ struct SensorTiming {
     unsynchronised: u64,
     last_offset_nanos: Option<i64>,
     last_drift_ppm: Option<f64>,
+    /// True capture time of the sensor's first mapped frame (the start of its warm-up).
+    first_mapped_true_nanos: Option<i64>,
+    /// Frames after the warm-up mapped more than [`WRONG_NANOS`] wrong.
+    wrong: u64,
+    /// True capture times of the first and the last of them.
+    wrong_span: Option<(i64, i64)>,
 }
+
+/// A frame mapped further than this from its true capture time is mapped wrong, ns (the
+/// thesis' synchronisation target, §6.4.1).
+pub const WRONG_NANOS: i64 = 1_000_000;
 
 #[derive(Debug, Default)]
 struct SensorFrames {
@@ -169,6 +179,13 @@ pub struct NtpSummary {
     pub abs_error_ms: Percentiles,
     /// Share of checked frames with |error| < 1 ms.
     pub share_below_1ms: f64,
+    /// Frames mapped more than 1 ms wrong, not counting the sensor's warm-up (frames captured
+    /// within `WARMUP_SECS` of its first mapped one, while the filter has few samples): the
+    /// frames a clock step or a congested link left wrong.
+    pub frames_over_1ms: u64,
+    /// True capture time from the first to the last of those frames, seconds (`None`: none):
+    /// how long the mapping stayed wrong, if it was wrong in one stretch.
+    pub over_1ms_span_secs: Option<f64>,
     /// Last offset estimate (sensor − server), ms.
     pub offset_ms: Option<f64>,
     /// Last drift estimate, ppm.
@@ -309,10 +326,24 @@ impl Stats {
     pub fn push_timing(&mut self, rows: &[FrameTiming]) {
         for row in rows {
             let t = self.timing.entry(row.sensor_id.clone()).or_default();
-            match (row.server_stamp_nanos, row.error_nanos()) {
-                (None, _) => t.unsynchronised += 1,
-                (Some(_), Some(err)) => t.abs_err_nanos.push(err.abs()),
-                (Some(_), None) => {}
+            match (
+                row.server_stamp_nanos,
+                row.error_nanos(),
+                row.true_stamp_nanos,
+            ) {
+                (None, _, _) => t.unsynchronised += 1,
+                (Some(_), Some(err), Some(true_nanos)) => {
+                    t.abs_err_nanos.push(err.abs());
+                    let first = *t.first_mapped_true_nanos.get_or_insert(true_nanos);
+                    if err.abs() > WRONG_NANOS && true_nanos - first >= self.warmup_nanos {
+                        t.wrong += 1;
+                        t.wrong_span =
+                            Some(t.wrong_span.map_or((true_nanos, true_nanos), |(a, b)| {
+                                (a.min(true_nanos), b.max(true_nanos))
+                            }));
+                    }
+                }
+                (Some(_), _, _) => {}
             }
             if row.offset_nanos.is_some() {
                 t.last_offset_nanos = row.offset_nanos;
@@ -403,7 +434,7 @@ impl Stats {
                 .timing
                 .iter()
                 .map(|(id, t)| {
-                    let below = t.abs_err_nanos.iter().filter(|e| **e < 1_000_000).count();
+                    let below = t.abs_err_nanos.iter().filter(|e| **e < WRONG_NANOS).count();
                     (
                         id.clone(),
                         NtpSummary {
@@ -415,6 +446,8 @@ impl Stats {
                             } else {
                                 below as f64 / t.abs_err_nanos.len() as f64
                             },
+                            frames_over_1ms: t.wrong,
+                            over_1ms_span_secs: t.wrong_span.map(|(a, b)| (b - a) as f64 * 1e-9),
                             offset_ms: t.last_offset_nanos.map(|o| o as f64 * 1e-6),
                             drift_ppm: t.last_drift_ppm,
                         },
@@ -433,5 +466,59 @@ impl Stats {
             input_drops: self.input_drops.clone(),
             gait: None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A frame of `sensor` captured at true time `true_nanos`, mapped `err_nanos` off.
+    fn timing(sensor: &str, seq: u64, true_nanos: i64, err_nanos: i64) -> FrameTiming {
+        FrameTiming {
+            sensor_id: sensor.into(),
+            seq,
+            local_stamp_nanos: true_nanos,
+            server_stamp_nanos: Some(true_nanos + err_nanos),
+            uncertainty_nanos: Some(100_000),
+            offset_nanos: Some(0),
+            drift_ppm: Some(0.0),
+            true_stamp_nanos: Some(true_nanos),
+            joints: Vec::new(),
+        }
+    }
+
+    /// Frames mapped more than 1 ms wrong are counted per sensor after its warm-up (1 s from
+    /// its first mapped frame), with the true-time span from the first to the last; 1 ms
+    /// exactly is not wrong, and a sensor mapped well throughout reports none.
+    #[test]
+    fn counts_frames_mapped_over_1ms_after_the_warmup() {
+        let mut stats = Stats::new(1_000_000_000);
+        let period = 33_333_333;
+        let rows: Vec<FrameTiming> = (0..150_u64)
+            .flat_map(|seq| {
+                let t = 500_000_000 + seq as i64 * period;
+                let err = match t - 500_000_000 {
+                    // Warm-up: a rough first fit.
+                    d if d < 400_000_000 => 3_000_000,
+                    // A +1 s step, 7 frames before the filter catches up.
+                    d if (3_000_000_000..3_000_000_000 + 7 * period).contains(&d) => -1_000_000_000,
+                    _ => 200_000,
+                };
+                [
+                    timing("k1", seq, t, err),
+                    timing("k2", seq, t + 1, -300_000),
+                ]
+            })
+            .collect();
+        stats.push_timing(&rows);
+        stats.push_timing(&[timing("k1", 150, 5_600_000_000, 1_000_000)]);
+        let s = stats.summary(6_000_000_000, true);
+        let (k1, k2) = (&s.ntp["k1"], &s.ntp["k2"]);
+        assert_eq!(k1.frames_checked, 151);
+        assert_eq!(k1.frames_over_1ms, 7, "{k1:?}");
+        let span = k1.over_1ms_span_secs.unwrap();
+        assert!((span - 6.0 * period as f64 * 1e-9).abs() < 1e-9, "{span}");
+        assert_eq!((k2.frames_over_1ms, k2.over_1ms_span_secs), (0, None));
     }
 }

@@ -19,7 +19,7 @@ use eyre::{Context, bail};
 use tracing::{info, warn};
 use trigait_node_config::RigStamp;
 use trigait_schema::{FrameTiming, Message, NtpExchange, SkeletonFrameMessage, ports};
-use trigait_sync::{AlignedSet, Error as SyncError, NtpSchedule, SyncBuffer};
+use trigait_sync::{AlignedSet, Error as SyncError, NtpSchedule, SampleOutcome, SyncBuffer};
 
 use crate::config::Config;
 
@@ -351,6 +351,19 @@ impl State {
             return;
         };
         match self.buffer.push_ntp(sensor, sample) {
+            Ok(SampleOutcome::Step {
+                step_nanos,
+                exchanges,
+                ..
+            }) => {
+                self.counters.ntp_replies += 1;
+                warn!(
+                    %sensor,
+                    step_ms = step_nanos as f64 * 1e-6,
+                    exchanges,
+                    "sensor clock stepped; frames map with the new offset from this exchange on"
+                );
+            }
             Ok(_) => self.counters.ntp_replies += 1,
             Err(e) => {
                 self.counters.malformed += 1;

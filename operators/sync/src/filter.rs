@@ -23,7 +23,9 @@
 //!    with `min_used` samples) mapped frames with errors of up to 190 ms at 16 sensors;
 //! 6. detects a clock **step** (someone set the sensor's clock, an NTP daemon slewed it): a sample
 //!    whose offset is outside every error bound is held back; [`ClockFilterParams::step_confirm_samples`]
-//!    such samples agreeing with each other reset the window to them and are reported as a step.
+//!    such samples agreeing with each other reset the window to them and are reported as a step,
+//!    with the number of exchanges from the first that disagreed through the one that confirmed
+//!    it (how long, in exchanges, frames were mapped with the stale estimate).
 //!
 //! Offsets are "sensor clock minus server clock" (see [`crate::ntp`]).
 
@@ -200,6 +202,10 @@ pub enum SampleOutcome {
         step_nanos: i64,
         /// Server time of the newest sample that confirmed the step.
         at_server_nanos: i64,
+        /// Exchanges from the first that disagreed with the previous estimate through this
+        /// one, rejected ones included (at least [`ClockFilterParams::step_confirm_samples`]):
+        /// until this exchange, frames were mapped with the estimate from before the step.
+        exchanges: u64,
     },
 }
 
@@ -273,6 +279,11 @@ pub struct ClockFilter {
     drift_prior: Option<(f64, f64)>,
     newest_t1: Option<i64>,
     steps: u64,
+    /// Exchanges pushed so far.
+    exchanges: u64,
+    /// The exchange (of [`Self::exchanges`]) that first disagreed with the fit, while samples
+    /// keep disagreeing.
+    disagreeing_since: Option<u64>,
     /// Whether the filter has had a fit: after that a step's shorter window still maps.
     synchronised: bool,
 }
@@ -290,6 +301,8 @@ impl ClockFilter {
             drift_prior: None,
             newest_t1: None,
             steps: 0,
+            exchanges: 0,
+            disagreeing_since: None,
             synchronised: false,
         })
     }
@@ -297,6 +310,7 @@ impl ClockFilter {
     /// Feeds one exchange. Never panics: impossible timestamps come back as
     /// [`SampleOutcome::Rejected`] with the reason.
     pub fn push(&mut self, sample: NtpSample) -> SampleOutcome {
+        self.exchanges += 1;
         let m = match sample.measure() {
             Ok(m) => m,
             Err(r) => return SampleOutcome::Rejected(r),
@@ -329,6 +343,7 @@ impl ClockFilter {
                 return SampleOutcome::Rejected(too_slow);
             }
             self.window = std::mem::take(&mut self.overdelayed);
+            self.disagreeing_since = None;
             self.refit();
             return SampleOutcome::Accepted(m);
         }
@@ -337,6 +352,7 @@ impl ClockFilter {
             self.window.retain(|w| w.delay_nanos <= limit);
             self.overdelayed.clear();
             self.pending.clear();
+            self.disagreeing_since = None;
             self.window.push_back(m);
             self.refit();
             return SampleOutcome::Accepted(m);
@@ -361,6 +377,7 @@ impl ClockFilter {
         }
         self.pending.clear();
         self.overdelayed.clear();
+        self.disagreeing_since = None;
         self.window.push_back(m);
         while self.window.len() > self.params.window_len {
             self.window.pop_front();
@@ -377,6 +394,7 @@ impl ClockFilter {
         residual_nanos: i64,
         allowed_nanos: i64,
     ) -> SampleOutcome {
+        let since = *self.disagreeing_since.get_or_insert(self.exchanges);
         if let Some((first, _)) = self.pending.first() {
             // Do the held samples agree with each other (allowing for the drift)?
             let dt = (i128::from(m.server_mid_nanos) - i128::from(first.server_mid_nanos)) as f64;
@@ -399,10 +417,12 @@ impl ClockFilter {
         let step_nanos = residuals[residuals.len() / 2];
         self.window = self.pending.drain(..).map(|(s, _)| s).collect();
         self.steps += 1;
+        self.disagreeing_since = None;
         self.refit();
         SampleOutcome::Step {
             step_nanos,
             at_server_nanos: m.server_mid_nanos,
+            exchanges: self.exchanges - since + 1,
         }
     }
 
@@ -696,12 +716,46 @@ mod tests {
             SampleOutcome::Rejected(Rejection::Inconsistent { .. })
         ));
         let out = f.push(sample(6_000_000_000, 25_000_000, 0.0, 100_000));
-        let SampleOutcome::Step { step_nanos, .. } = out else {
+        let SampleOutcome::Step {
+            step_nanos,
+            exchanges,
+            ..
+        } = out
+        else {
             panic!("expected a step, got {out:?}")
         };
         assert!((step_nanos - 20_000_000).abs() < 1_000, "{step_nanos}");
+        assert_eq!(exchanges, 3);
         assert_eq!(f.steps(), 1);
         assert!((f.estimate().unwrap().offset_nanos - 25_000_000).abs() < 1_000);
+    }
+
+    /// The exchanges a step took count from the first that disagreed, a slow exchange rejected
+    /// in between included; a lone outlier answered by agreeing samples starts no count.
+    #[test]
+    fn step_counts_exchanges_from_the_first_disagreeing() {
+        let mut f = ClockFilter::new(ClockFilterParams::default()).unwrap();
+        for k in 0..10 {
+            f.push(sample(k * 500_000_000, 5_000_000, 0.0, 100_000));
+        }
+        f.push(sample(5_000_000_000, 25_000_000, 0.0, 100_000));
+        f.push(sample(5_500_000_000, 5_000_000, 0.0, 100_000));
+        let stepped = |k: i64| sample(k * 500_000_000, 1_005_000_000, 0.0, 100_000);
+        assert!(matches!(
+            f.push(stepped(12)),
+            SampleOutcome::Rejected(Rejection::Inconsistent { .. })
+        ));
+        assert!(matches!(
+            f.push(sample(6_500_000_000, 1_005_000_000, 0.0, 15_000_000)),
+            SampleOutcome::Rejected(Rejection::DelayAboveLimit { .. })
+        ));
+        f.push(stepped(14));
+        let out = f.push(stepped(15));
+        assert!(
+            matches!(out, SampleOutcome::Step { exchanges: 4, .. }),
+            "{out:?}"
+        );
+        assert_eq!(f.steps(), 1);
     }
 
     /// A lone outlier does not move the estimate and does not count as a step.

@@ -11,7 +11,7 @@
 #![allow(clippy::unwrap_used)]
 
 use trigait_sim::clock::{LinkDelay, SimClock, SimSensorLink};
-use trigait_sync::{ClockFilter, ClockFilterParams};
+use trigait_sync::{ClockFilter, ClockFilterParams, SampleOutcome};
 
 const NTP_INTERVAL_NANOS: i64 = 100_000_000;
 const FRAME_NANOS: i64 = 33_333_333;
@@ -31,6 +31,8 @@ struct Resync {
     /// Frames before the step (after the first second) mapped more than 1 ms wrong.
     wrong_before: usize,
     steps: u64,
+    /// The exchanges the filter itself reported for the step.
+    reported_exchanges: Option<u64>,
 }
 
 fn run(step_nanos: i64, seed: u64) -> Resync {
@@ -43,10 +45,13 @@ fn run(step_nanos: i64, seed: u64) -> Resync {
     let mut exchanges_after_step = 0;
     let mut last_wrong_exchange = 0;
     let (mut wrong_frames, mut unmapped_frames, mut wrong_before) = (0, 0, 0);
+    let mut reported_exchanges = None;
     while next_ntp < RUN_NANOS || next_frame < RUN_NANOS {
         if next_ntp <= next_frame {
             let exchange = sensor.exchange(next_ntp);
-            filter.push(exchange.sample);
+            if let SampleOutcome::Step { exchanges, .. } = filter.push(exchange.sample) {
+                reported_exchanges = Some(exchanges);
+            }
             if next_ntp >= STEP_AT_NANOS {
                 exchanges_after_step += 1;
             }
@@ -79,11 +84,13 @@ fn run(step_nanos: i64, seed: u64) -> Resync {
         unmapped_frames,
         wrong_before,
         steps: filter.steps(),
+        reported_exchanges,
     }
 }
 
 /// +1 s and −1 s steps, five seeds each: resynchronised within 5 exchanges, ≤ 30 frames (1 s)
-/// mapped more than 1 ms wrong, and exactly one step detected.
+/// mapped more than 1 ms wrong, and exactly one step detected. The filter's own count of the
+/// step's exchanges (from the first that disagreed) is at most the count from the true step.
 #[test]
 fn one_second_step_resyncs_within_five_exchanges() {
     for step in [1_000_000_000, -1_000_000_000] {
@@ -95,6 +102,8 @@ fn one_second_step_resyncs_within_five_exchanges() {
             assert!(r.exchanges <= 5, "{r:?}");
             assert!(r.wrong_frames <= 30, "{r:?}");
             assert!(r.unmapped_frames <= 30, "{r:?}");
+            let reported = r.reported_exchanges.unwrap() as usize;
+            assert!((3..=r.exchanges).contains(&reported), "{r:?}");
         }
     }
 }
