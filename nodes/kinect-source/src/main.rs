@@ -73,13 +73,14 @@ pub fn run(
             let Some(captured) = source.capture(due.max(now_nanos()), &mut clock) else {
                 break;
             };
-            send_capture(&mut node, &frame_out, &truth_out, &stamp, captured)?;
-            counters.frames_sent += 1;
             let first = *first_frame_nanos.get_or_insert(due);
-            if config
+            // The run's planned end: this frame is the last, and says so.
+            let last = config
                 .stop_after_nanos
-                .is_some_and(|run| due - first >= run)
-            {
+                .is_some_and(|run| due - first >= run);
+            send_capture(&mut node, &frame_out, &truth_out, &stamp, last, captured)?;
+            counters.frames_sent += 1;
+            if last {
                 info!(
                     "stopping after {} frames ({})",
                     counters.frames_sent,
@@ -148,10 +149,14 @@ fn send_capture(
     frame_out: &DataId,
     truth_out: &DataId,
     stamp: &RigStamp,
+    last: bool,
     captured: Captured,
 ) -> eyre::Result<()> {
     let mut params = MetadataParameters::default();
     stamp.insert_into(&mut params);
+    if last {
+        params.insert(ports::END_OF_STREAM.to_owned(), Parameter::Bool(true));
+    }
     params.insert(
         ports::SENT_NANOS.to_owned(),
         Parameter::Integer(now_nanos()),

@@ -209,6 +209,8 @@ pub fn run(
     };
     let mut stopped = false;
     let mut closed: Vec<String> = Vec::new();
+    // Sources whose last frame said the stream ends as planned.
+    let mut ended: Vec<String> = Vec::new();
     while let Some(event) = events.recv() {
         trigait_node_log::warn_drops(&mut events);
         match event {
@@ -219,6 +221,12 @@ pub fn run(
                     Input::Tick => state.on_tick(&mut node, now)?,
                     Input::NtpReply(sensor) => state.on_ntp_reply(sensor, array.as_ref(), now),
                     Input::Frame(sensor) => {
+                        if matches!(
+                            metadata.parameters.get(ports::END_OF_STREAM),
+                            Some(Parameter::Bool(true))
+                        ) {
+                            ended.push(sensor.to_owned());
+                        }
                         state.on_frame(
                             &mut node,
                             sensor,
@@ -234,7 +242,11 @@ pub fn run(
                 if let Input::Frame(sensor) = Input::parse(id.as_str()) {
                     closed.push(sensor.to_owned());
                     if closed.len() < state.sensors.len() {
-                        warn!(%sensor, "source stopped; its sets go out incomplete from now on");
+                        if ended.iter().any(|e| e == sensor) {
+                            info!(%sensor, "source ended its stream");
+                        } else {
+                            warn!(%sensor, "source stopped; its sets go out incomplete from now on");
+                        }
                     } else {
                         info!("every source has ended; sending the last sets");
                         break;

@@ -67,6 +67,10 @@ pub const RIG_NAME: &str = "trigait.rig_name";
 /// Metadata key (string): the node whose `RIG` it is (`k1`), for errors.
 pub const RIG_NODE: &str = "trigait.rig_node";
 
+/// Metadata key (bool): on a source's last frame when it ends its stream as planned
+/// (`STOP_AFTER_SECS`), so `sync` takes the closed input for the run's end, not a failure.
+pub const END_OF_STREAM: &str = "trigait.end_of_stream";
+
 /// Every metadata key above (the message reference documents each).
 pub const METADATA_KEYS: &[&str] = &[
     SENT_NANOS,
@@ -75,6 +79,7 @@ pub const METADATA_KEYS: &[&str] = &[
     RIG_FINGERPRINT,
     RIG_NAME,
     RIG_NODE,
+    END_OF_STREAM,
 ];
 
 /// The sensor id of a `sync`/`recorder` input id with `prefix` (`frame_k1` → `k1`).
