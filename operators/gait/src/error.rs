@@ -16,7 +16,8 @@ pub enum Error {
     #[error(
         "no straight walking of at least {min_segment_secs:.2} s found in {duration_secs:.2} s of \
          motion (standing {standing_secs:.2} s, turning {turning_secs:.2} s, gaps \
-         {gap_secs:.2} s, walking too briefly {short_secs:.2} s)"
+         {gap_secs:.2} s, walking too briefly {short_secs:.2} s, feet not alternating (hopping, \
+         jumping) {not_alternating_secs:.2} s)"
     )]
     NoWalking {
         /// Length of the clip.
@@ -29,6 +30,8 @@ pub enum Error {
         gap_secs: f64,
         /// Time of walking runs shorter than the minimum segment length.
         short_secs: f64,
+        /// Time the pelvis travelled but the feet did not alternate.
+        not_alternating_secs: f64,
         /// The minimum segment length that was asked for.
         min_segment_secs: f64,
     },

@@ -125,6 +125,9 @@ pub enum ExclusionReason {
     Gap,
     /// Walking, but for less than [`SegmentParams::min_segment_secs`].
     TooShort,
+    /// The pelvis travelled, but the feet did not alternate (hopping, jumping, shuffling with
+    /// both feet together): not gait, so no strides.
+    NotAlternating,
 }
 
 impl ExclusionReason {
@@ -136,6 +139,7 @@ impl ExclusionReason {
             ExclusionReason::Turning => "turning",
             ExclusionReason::Gap => "gap",
             ExclusionReason::TooShort => "too_short",
+            ExclusionReason::NotAlternating => "not_alternating",
         }
     }
 }

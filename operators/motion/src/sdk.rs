@@ -9,7 +9,7 @@
 use std::path::Path;
 
 use nalgebra::Point3;
-use trigait_skeleton::{Joint, JointSample, TrackingState};
+use trigait_skeleton::{Joint, JointSample, MotionClip, TrackingState};
 
 use crate::{Error, Result};
 
@@ -114,6 +114,89 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
         return Err((1, "no frames".into()));
     }
     Ok(frames)
+}
+
+/// Kinect v2 SDK skeleton frames as a world-frame [`MotionClip`] at `rate_hz` (30 for a Kinect
+/// v2), with what was left out.
+///
+/// Camera space (x to the sensor's left, y up, z out of the lens) is turned into the Z-up world
+/// by (x, y, z) ↦ (z, x, y), a proper rotation: world X points away from the sensor, Z up. The
+/// floor is wherever the sensor saw it (not z = 0); gait analysis measures heights relative to
+/// each foot's own stance level, so that does not matter. Frames are placed by their frame
+/// number relative to the first, so a skipped number is a gap; a repeated number keeps its first
+/// line. Joints the tracker only *inferred* are dropped when `drop_inferred` is set (the
+/// occluded leg is then often far from the real one).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SdkClip {
+    /// The trajectories.
+    pub clip: MotionClip,
+    /// Lines whose frame number repeated an earlier one (skipped).
+    pub repeated_frames: usize,
+    /// Frame numbers missing between the first and the last (gaps).
+    pub missing_frames: usize,
+    /// Joint samples dropped as inferred.
+    pub inferred_dropped: usize,
+    /// Joint samples kept as inferred (when `drop_inferred` is off).
+    pub inferred_kept: usize,
+}
+
+/// Builds an [`SdkClip`] from parsed SDK frames.
+///
+/// # Errors
+/// [`Error::Clip`] for a bad rate or no frames.
+pub fn sdk_clip(
+    name: &str,
+    frames: &[SdkFrame],
+    rate_hz: f64,
+    drop_inferred: bool,
+) -> Result<SdkClip> {
+    let first = frames.iter().map(|f| f.frame_number).min().unwrap_or(0);
+    let last = frames.iter().map(|f| f.frame_number).max().unwrap_or(0);
+    // A corrupt frame number must not allocate the world: cap the span at an hour of frames.
+    let span = usize::try_from(last - first)
+        .unwrap_or(usize::MAX)
+        .min(3600 * 30)
+        + 1;
+    let joints = Joint::ALL.to_vec();
+    let mut rows: Vec<Option<Vec<Option<Point3<f64>>>>> = vec![None; span];
+    let (mut repeated, mut dropped, mut kept) = (0, 0, 0);
+    for frame in frames {
+        let Ok(index) = usize::try_from(frame.frame_number - first) else {
+            continue;
+        };
+        let Some(slot) = rows.get_mut(index) else {
+            continue;
+        };
+        if slot.is_some() {
+            repeated += 1;
+            continue;
+        }
+        let mut row = vec![None; joints.len()];
+        for sample in &frame.joints {
+            if sample.state == TrackingState::Inferred {
+                if drop_inferred {
+                    dropped += 1;
+                    continue;
+                }
+                kept += 1;
+            }
+            let c = sample.position_in_kinect;
+            row[sample.joint as usize] = Some(Point3::new(c.z, c.x, c.y));
+        }
+        *slot = Some(row);
+    }
+    let missing = rows.iter().filter(|r| r.is_none()).count();
+    let rows = rows
+        .into_iter()
+        .map(|r| r.unwrap_or_else(|| vec![None; joints.len()]))
+        .collect();
+    Ok(SdkClip {
+        clip: MotionClip::new(name, rate_hz, joints, rows)?,
+        repeated_frames: repeated,
+        missing_frames: missing,
+        inferred_dropped: dropped,
+        inferred_kept: kept,
+    })
 }
 
 #[cfg(test)]
