@@ -50,6 +50,7 @@ impl Args {
             treadmill: self.treadmill,
             overground: self.overground,
             keep_inferred: self.keep_inferred,
+            joint_centres: false,
             filter: self.filter,
             json: false,
             plots: None,

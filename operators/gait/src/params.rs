@@ -578,7 +578,8 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         };
         return Err(Error::TooFewStrides {
             got: strides.len(),
-            need: params.min_strides.max(1),
+            need: params.min_strides,
+            steps: steps.len(),
             heel_strikes_left: count(Foot::Left),
             heel_strikes_right: count(Foot::Right),
             walking_secs: segmentation.walking_secs(rate),

@@ -126,12 +126,30 @@ impl Landmarks {
         self.pelvis.is_empty()
     }
 
-    /// Whether the pelvis and a heel have a sample at `frame` (toes are optional, and one heel
-    /// is enough: that foot's events can still be found while the other is out of view).
+    /// Per frame, whether it can be analysed: the pelvis and both heels have a sample, or one
+    /// heel has and the other foot is out of view at an end of the clip (before its first or
+    /// after its last sample: not yet in, or already out of, the capture volume), so that foot's
+    /// last events are still found. A heel missing between samples is a dropout, a gap, and so
+    /// is a foot never seen.
     #[must_use]
-    pub fn complete(&self, frame: usize) -> bool {
-        let ok = |v: &Vec<Option<Point3<f64>>>| v.get(frame).copied().flatten().is_some();
-        ok(&self.pelvis) && self.heel.iter().any(ok)
+    pub fn complete_frames(&self) -> Vec<bool> {
+        let seen = |v: &Vec<Option<Point3<f64>>>| {
+            let first = v.iter().position(Option::is_some);
+            let last = v.iter().rposition(Option::is_some);
+            first.zip(last)
+        };
+        let spans = [seen(&self.heel[0]), seen(&self.heel[1])];
+        (0..self.len())
+            .map(|f| {
+                let ok = |v: &Vec<Option<Point3<f64>>>| v.get(f).copied().flatten().is_some();
+                let present = [ok(&self.heel[0]), ok(&self.heel[1])];
+                let out_of_view =
+                    |k: usize| spans[k].is_some_and(|(first, last)| f < first || f > last);
+                ok(&self.pelvis)
+                    && present.iter().any(|p| *p)
+                    && (0..2).all(|k| present[k] || out_of_view(k))
+            })
+            .collect()
     }
 
     pub(crate) fn time(&self, frame: f64) -> f64 {
