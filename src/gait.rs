@@ -24,9 +24,9 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Method::Auto)]
     pub method: Method,
     /// Treadmill walking, at SPEED m/s if given (else the belt speed is estimated from the
-    /// stance feet). Without the option a treadmill is detected from a fixed pelvis and
-    /// periodic feet.
-    #[arg(long, value_name = "SPEED", num_args = 0..=1)]
+    /// stance feet), 0 to 10 m/s. Without the option a treadmill is detected from a fixed
+    /// pelvis and periodic feet.
+    #[arg(long, value_name = "SPEED", num_args = 0..=1, value_parser = crate::ranges::number(0.0, 10.0, "m/s"))]
     pub treadmill: Option<Option<f64>>,
     /// Overground walking: never apply the treadmill correction.
     #[arg(long, conflicts_with = "treadmill")]

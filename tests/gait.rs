@@ -240,6 +240,10 @@ fn bad_input_is_a_clear_error() {
         &["gait", path.to_str().unwrap(), "--filter", "kalman"],
         "butterworth:6hz",
     );
+    // A belt speed that is not a speed.
+    for speed in ["--treadmill=nan", "--treadmill=-1", "--treadmill=1e9"] {
+        fails_with(&["gait", path.to_str().unwrap(), speed], "0..=10 m/s");
+    }
     // Demanding more strides than a 2.6 s walk has.
     fails_with(
         &["gait", path.to_str().unwrap(), "--min-strides", "5"],
