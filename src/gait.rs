@@ -8,7 +8,8 @@ use eyre::WrapErr;
 use serde::Serialize;
 use trigait_gait::filter::Filter;
 use trigait_gait::{
-    Comparison, EventKind, EventMethod, Foot, GaitAnalysis, GaitParams, Stat, Tolerances, plot,
+    Comparison, EventKind, EventMethod, Foot, GaitAnalysis, GaitParams, Stat, Tolerances,
+    TreadmillMode, plot,
 };
 use trigait_skeleton::{Joint, MotionClip};
 
@@ -18,9 +19,26 @@ pub struct Args {
     /// Motion file: C3D/TRC markers (joint centres are derived), or joint trajectories as trigait
     /// exports them (C3D/TRC with joint-named markers, CSV).
     pub file: PathBuf,
-    /// Gait-event detector: Zeni et al. 2008 coordinate method, or foot velocity.
-    #[arg(long, value_enum, default_value_t = Method::Coordinate)]
+    /// Gait-event detector: auto (coordinate method for walking, foot velocity for running),
+    /// Zeni et al. 2008 coordinate method, or foot velocity.
+    #[arg(long, value_enum, default_value_t = Method::Auto)]
     pub method: Method,
+    /// Treadmill walking, at SPEED m/s if given (else the belt speed is estimated from the
+    /// stance feet), 0 to 10 m/s. Without the option a treadmill is detected from a fixed
+    /// pelvis and periodic feet.
+    #[arg(long, value_name = "SPEED", num_args = 0..=1, value_parser = crate::ranges::number(0.0, 10.0, "m/s"))]
+    pub treadmill: Option<Option<f64>>,
+    /// Overground walking: never apply the treadmill correction.
+    #[arg(long, conflicts_with = "treadmill")]
+    pub overground: bool,
+    /// Kinect SDK skeleton text (.txt): keep joints the tracker only inferred (dropped by
+    /// default: an occluded leg is often inferred far from the real one).
+    #[arg(long)]
+    pub keep_inferred: bool,
+    /// Find the events on the joint centres (ankles, feet, pelvis) even when the file has heel
+    /// and toe markers, as on a joint export of it.
+    #[arg(long)]
+    pub joint_centres: bool,
     /// Trajectory filter before event detection: none, butterworth:<f>hz (zero-lag, e.g.
     /// butterworth:6hz) or one-euro[:<min cut-off>hz:<beta>].
     #[arg(long, default_value = "none", value_parser = parse_filter)]
@@ -31,8 +49,9 @@ pub struct Args {
     /// Write trajectory and footfall plots (SVG and PNG) into this directory.
     #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
-    /// Fewest complete strides (both feet together) accepted, 0 to 1000.
-    #[arg(long, default_value_t = 2, value_parser = crate::ranges::count(0, 1000))]
+    /// Fewest complete strides (both feet together) accepted; with 0, figures rest on single
+    /// steps where no stride exists (the table marks them).
+    #[arg(long, default_value_t = 0, value_parser = crate::ranges::count(0, 1000))]
     pub min_strides: usize,
     /// Also play the walk through the simulated Kinect pipeline (rig, Kinect v2 noise model,
     /// fusion estimator, 30 Hz) and compare its gait parameters with those of the file.
@@ -102,6 +121,8 @@ pub fn simulate_kinect_pipeline(
 /// Event detector, as named on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Method {
+    /// Coordinate method for walking, velocity method when flight phases show running.
+    Auto,
     /// Heel/toe position relative to the pelvis along the walking direction (Zeni 2008).
     Coordinate,
     /// Heel/toe horizontal speed against a walking-speed threshold (Ghoussayni 2004).
@@ -111,6 +132,7 @@ pub enum Method {
 impl From<Method> for EventMethod {
     fn from(m: Method) -> Self {
         match m {
+            Method::Auto => EventMethod::Auto,
             Method::Coordinate => EventMethod::Coordinate,
             Method::Velocity => EventMethod::Velocity,
         }
@@ -126,6 +148,7 @@ fn parse_filter(spec: &str) -> Result<Filter, String> {
 struct Report<'a> {
     file: String,
     filter: String,
+    notes: Vec<String>,
     heel_strikes: Counts,
     toe_offs: Counts,
     #[serde(flatten)]
@@ -141,6 +164,8 @@ struct KinectSim {
     seed: u64,
     filter: String,
     rate_hz: f64,
+    /// The file's parameters on its joint centres (ankles), which the pipeline is compared with.
+    reference: trigait_gait::Summary,
     summary: trigait_gait::Summary,
     heel_strikes: Counts,
     /// Estimate − reference (markers) for each mean parameter.
@@ -172,23 +197,244 @@ pub fn load_clip(path: &Path) -> eyre::Result<MotionClip> {
         .wrap_err_with(|| format!("reading joint trajectories from {}", path.display()))
 }
 
-/// Runs `trigait gait`.
-pub fn run(args: Args) -> eyre::Result<()> {
-    let clip = load_clip(&args.file)?;
-    let clip = args
-        .filter
-        .apply(&clip)
-        .wrap_err_with(|| format!("filtering with {}", args.filter))?;
+/// Kinect v2 SDK skeletons are delivered at 30 frames/s.
+const SDK_RATE_HZ: f64 = 30.0;
+
+/// A motion file made ready for gait analysis.
+pub struct GaitInput {
+    /// Joint trajectories (joint centres, a joint export, or a Kinect skeleton); `None` when
+    /// the markers give no joint centres (e.g. no knee or ankle markers). Plots and
+    /// `--kinect-sim` use it.
+    pub clip: Option<MotionClip>,
+    /// What the events are found on: heel, toe and pelvis markers when the file has them,
+    /// else the clip's ankles, feet and pelvis.
+    pub landmarks: trigait_gait::Landmarks,
+    /// Notes on how the file was read, for the report.
+    pub notes: Vec<String>,
+}
+
+/// The joints a [`trigait_gait::Landmarks`] becomes for filtering and plotting: pelvis →
+/// `SpineBase`, heels → ankles, toes → feet.
+fn landmarks_clip(name: &str, l: &trigait_gait::Landmarks) -> eyre::Result<MotionClip> {
+    let frames = (0..l.len())
+        .map(|f| {
+            vec![
+                l.pelvis[f],
+                l.heel[0][f],
+                l.toe[0][f],
+                l.heel[1][f],
+                l.toe[1][f],
+            ]
+        })
+        .collect();
+    MotionClip::new(
+        name,
+        l.rate_hz,
+        vec![
+            Joint::SpineBase,
+            Joint::AnkleLeft,
+            Joint::FootLeft,
+            Joint::AnkleRight,
+            Joint::FootRight,
+        ],
+        frames,
+    )
+    .wrap_err("assembling the landmark trajectories")
+}
+
+fn landmarks_from_clip_of(
+    clip: &MotionClip,
+    heel_source: trigait_gait::HeelSource,
+) -> eyre::Result<trigait_gait::Landmarks> {
+    let track = |j: Joint| {
+        (0..clip.frame_count())
+            .map(|f| clip.position(f, j))
+            .collect()
+    };
+    Ok(trigait_gait::Landmarks {
+        rate_hz: clip.rate_hz(),
+        pelvis: track(Joint::SpineBase),
+        heel: [track(Joint::AnkleLeft), track(Joint::AnkleRight)],
+        toe: [track(Joint::FootLeft), track(Joint::FootRight)],
+        heel_source,
+    })
+}
+
+/// Reads `path` for gait analysis: Kinect SDK skeleton text (`.txt`), markers (C3D/TRC: heel,
+/// toe and pelvis markers for the events, joint centres for plots when the markers allow), or
+/// joint trajectories (trigait exports, CSV).
+pub fn load_input(
+    path: &Path,
+    keep_inferred: bool,
+    joint_centres: bool,
+) -> eyre::Result<GaitInput> {
+    let name = path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let is_txt = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
+    if is_txt {
+        let frames = trigait_motion::read_sdk_skeletons(path)
+            .wrap_err_with(|| format!("reading Kinect skeletons from {}", path.display()))?;
+        let sdk = trigait_motion::sdk_clip(&name, &frames, SDK_RATE_HZ, !keep_inferred)?;
+        let mut notes = vec![format!(
+            "Kinect v2 SDK skeletons at {SDK_RATE_HZ:.0} Hz, camera space turned Z up; \
+             {} repeated and {} missing frame numbers; {} inferred joint samples {}",
+            sdk.repeated_frames,
+            sdk.missing_frames,
+            sdk.inferred_dropped + sdk.inferred_kept,
+            if keep_inferred { "kept" } else { "dropped" }
+        )];
+        let landmarks = trigait_gait::Landmarks::from_clip(&sdk.clip)?;
+        if !sdk.clip.has(Joint::FootLeft) {
+            notes.push("no foot joints: toe offs from the ankles".to_owned());
+        }
+        return Ok(GaitInput {
+            clip: Some(sdk.clip),
+            landmarks,
+            notes,
+        });
+    }
+    if trigait_motion::MotionFormat::from_path(path)? == trigait_motion::MotionFormat::Csv {
+        let clip = load_clip(path)?;
+        let landmarks = trigait_gait::Landmarks::from_clip(&clip)?;
+        return Ok(GaitInput {
+            clip: Some(clip),
+            landmarks,
+            notes: vec!["joint trajectories: ankle centres stand in for the heels".to_owned()],
+        });
+    }
+    let markers = trigait_motion::read_markers(path)
+        .wrap_err_with(|| format!("reading markers from {}", path.display()))?;
+    if let Some(clip) = trigait_motion::joints_from_labels(&markers) {
+        let landmarks = trigait_gait::Landmarks::from_clip(&clip)?;
+        return Ok(GaitInput {
+            clip: Some(clip),
+            landmarks,
+            notes: vec!["joint trajectories: ankle centres stand in for the heels".to_owned()],
+        });
+    }
+    if joint_centres {
+        let clip = trigait_motion::joint_centres(&markers)
+            .wrap_err_with(|| format!("placing joint centres from {}", path.display()))?;
+        let landmarks = trigait_gait::Landmarks::from_clip(&clip)?;
+        return Ok(GaitInput {
+            clip: Some(clip),
+            landmarks,
+            notes: vec!["joint centres: ankle centres stand in for the heels".to_owned()],
+        });
+    }
+    let feet = trigait_motion::foot_markers(&markers)
+        .wrap_err_with(|| format!("finding heel and pelvis markers in {}", path.display()))?;
+    let mut notes = vec![format!(
+        "skin markers: events and step width from heel and toe markers ({})",
+        feet.labels.join(", ")
+    )];
+    let toe = [0, 1].map(|s| feet.toe[s].clone().unwrap_or_else(|| feet.heel[s].clone()));
+    if feet.toe.iter().any(Option::is_none) {
+        notes.push("a toe marker is missing: toe offs from the heel marker".to_owned());
+    }
+    let landmarks = trigait_gait::Landmarks {
+        rate_hz: markers.rate_hz(),
+        pelvis: feet.pelvis,
+        heel: feet.heel,
+        toe,
+        heel_source: trigait_gait::HeelSource::HeelMarker,
+    };
+    let clip = match trigait_motion::joint_centres(&markers) {
+        Ok(clip) => Some(clip),
+        Err(e) => {
+            notes.push(format!("no joint centres (plots show the markers): {e}"));
+            None
+        }
+    };
+    let gaps: usize = markers.gaps().iter().map(|g| g.missing_frames).sum();
+    if gaps > 0 {
+        notes.push(format!(
+            "{} markers have gaps ({gaps} missing marker-frames in all)",
+            markers.gaps().len()
+        ));
+    }
+    Ok(GaitInput {
+        clip,
+        landmarks,
+        notes,
+    })
+}
+
+/// The gait parameters `args` ask for.
+fn gait_params(args: &Args) -> GaitParams {
     let mut params = GaitParams::default();
     params.events.method = args.method.into();
     params.min_strides = args.min_strides;
-    let analysis = trigait_gait::analyse(&clip, &params)
+    params.treadmill = match (args.treadmill, args.overground) {
+        (Some(speed), _) => TreadmillMode::Treadmill {
+            belt_speed_mps: speed,
+        },
+        (None, true) => TreadmillMode::Overground,
+        (None, false) => TreadmillMode::Auto,
+    };
+    params
+}
+
+/// Filters the landmarks (and the clip) with `filter`.
+fn filtered(input: GaitInput, filter: &Filter, file: &Path) -> eyre::Result<GaitInput> {
+    if matches!(filter, Filter::None) {
+        return Ok(input);
+    }
+    let name = file.display().to_string();
+    let as_clip = landmarks_clip(&name, &input.landmarks)?;
+    let as_clip = filter
+        .apply(&as_clip)
+        .wrap_err_with(|| format!("filtering with {filter}"))?;
+    let landmarks = landmarks_from_clip_of(&as_clip, input.landmarks.heel_source)?;
+    let clip = match input.clip {
+        Some(c) => Some(
+            filter
+                .apply(&c)
+                .wrap_err_with(|| format!("filtering with {filter}"))?,
+        ),
+        None => None,
+    };
+    Ok(GaitInput {
+        clip,
+        landmarks,
+        notes: input.notes,
+    })
+}
+
+/// Reads, filters and analyses `args.file`: the input (for plots) and the analysis.
+pub fn analyse_file(args: &Args) -> eyre::Result<(GaitInput, GaitAnalysis)> {
+    let input = load_input(&args.file, args.keep_inferred, args.joint_centres)?;
+    let input = filtered(input, &args.filter, &args.file)?;
+    let params = gait_params(args);
+    let analysis = trigait_gait::analyse_landmarks(&input.landmarks, &params)
         .wrap_err_with(|| format!("analysing the gait in {}", args.file.display()))?;
+    Ok((input, analysis))
+}
+
+/// The clip plots draw: the joint centres, else the landmarks as joints.
+pub fn plot_clip(input: &GaitInput, file: &Path) -> eyre::Result<MotionClip> {
+    match &input.clip {
+        Some(c) if c.has(Joint::AnkleLeft) => Ok(c.clone()),
+        _ => landmarks_clip(&file.display().to_string(), &input.landmarks),
+    }
+}
+
+/// Runs `trigait gait`.
+pub fn run(args: Args) -> eyre::Result<()> {
+    let (input, analysis) = analyse_file(&args)?;
+    let params = gait_params(&args);
     let kinect_sim = if args.kinect_sim {
-        Some(run_kinect_sim(&args, &clip, &params, &analysis)?)
+        let clip = input.clip.as_ref().ok_or_else(|| {
+            eyre::eyre!("--kinect-sim needs joint centres, which these markers do not give")
+        })?;
+        Some(run_kinect_sim(&args, clip, &params)?)
     } else {
         None
     };
+    let clip = plot_clip(&input, &args.file)?;
     if let Some(dir) = &args.plots {
         write_plots(dir, &args.file, &clip, &analysis)?;
     }
@@ -196,6 +442,7 @@ pub fn run(args: Args) -> eyre::Result<()> {
         let report = Report {
             file: args.file.display().to_string(),
             filter: args.filter.to_string(),
+            notes: input.notes.clone(),
             heel_strikes: Counts::of(&analysis, EventKind::HeelStrike),
             toe_offs: Counts::of(&analysis, EventKind::ToeOff),
             analysis: &analysis,
@@ -204,20 +451,20 @@ pub fn run(args: Args) -> eyre::Result<()> {
         let text = serde_json::to_string_pretty(&report).wrap_err("encoding the JSON report")?;
         print_stdout(&format!("{text}\n"))
     } else {
-        let mut text = table(&args, &clip, &analysis);
+        let mut text = table(&args, &input.notes, &analysis);
         if let Some(k) = &kinect_sim {
-            text.push_str(&kinect_table(&analysis, k));
+            text.push_str(&kinect_table(k));
         }
         print_stdout(&text)
     }
 }
 
-fn run_kinect_sim(
-    args: &Args,
-    clip: &MotionClip,
-    params: &GaitParams,
-    reference: &GaitAnalysis,
-) -> eyre::Result<KinectSim> {
+/// The pipeline is compared with the file's own joint centres, not with its heel markers: the
+/// Kinects track joint centres, so both sides then measure events and step width on the
+/// ankles, and the difference is the pipeline's error rather than a change of definition.
+fn run_kinect_sim(args: &Args, clip: &MotionClip, params: &GaitParams) -> eyre::Result<KinectSim> {
+    let reference = trigait_gait::analyse(clip, params)
+        .wrap_err("analysing the gait of the file's joint centres")?;
     let rig = crate::eval::load_rig(Some(&args.rig), None)
         .wrap_err_with(|| format!("loading rig {:?}", args.rig))?;
     let motion = clip.placed_on_walkway();
@@ -231,6 +478,7 @@ fn run_kinect_sim(
     let analysis = trigait_gait::analyse(&fused, params)
         .wrap_err("analysing the gait seen by the simulated Kinect pipeline")?;
     let comparison = trigait_gait::compare(&reference.summary, &analysis.summary);
+    let reference = reference.summary;
     let tolerances = Tolerances::ISSUE_5;
     Ok(KinectSim {
         rig: rig.name.clone(),
@@ -238,6 +486,7 @@ fn run_kinect_sim(
         filter: args.kinect_filter.to_string(),
         rate_hz: KINECT_RATE_HZ,
         heel_strikes: Counts::of(&analysis, EventKind::HeelStrike),
+        reference,
         summary: analysis.summary,
         within_tolerances: comparison.within(&tolerances),
         comparison,
@@ -245,7 +494,7 @@ fn run_kinect_sim(
     })
 }
 
-fn kinect_table(reference: &GaitAnalysis, k: &KinectSim) -> String {
+fn kinect_table(k: &KinectSim) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let _ = writeln!(
@@ -256,9 +505,9 @@ fn kinect_table(reference: &GaitAnalysis, k: &KinectSim) -> String {
     let _ = writeln!(
         out,
         "{:<24} {:>8} {:>8} {:>10} {:>10}",
-        "parameter", "markers", "kinect", "difference", "tolerance"
+        "parameter", "joints", "kinect", "difference", "tolerance"
     );
-    let r = &reference.summary;
+    let r = &k.reference;
     let e = &k.summary;
     let c = &k.comparison;
     // (name, markers, kinect, difference, tolerance, digits)
@@ -382,19 +631,83 @@ fn cell(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "-".to_owned(), |v| format!("{v:.digits$}"))
 }
 
+/// One line per data-quality fact of `a` (and the reading `notes`): what the report's
+/// data-quality section and the table's footer say.
+pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
+    let mut out: Vec<String> = notes.to_vec();
+    let q = &a.quality;
+    out.push(format!(
+        "{} of {} landmark samples missing in the input; rejected {} (jumps {}, limb length {}); \
+         bridged {} (gaps up to 0.1 s); {} still missing",
+        q.missing_samples,
+        q.samples,
+        q.rejected(),
+        q.rejected_jumps,
+        q.rejected_limb_length,
+        q.bridged_samples,
+        q.remaining_gaps
+    ));
+    if a.rejected_events > 0 {
+        out.push(format!(
+            "{} proposed events dropped: the foot was airborne",
+            a.rejected_events
+        ));
+    }
+    out.push(if a.flights.is_empty() {
+        "no flight phases (one foot always on the floor)".to_owned()
+    } else {
+        format!(
+            "{} flight phases (both feet off the floor): {}",
+            a.flights.len(),
+            a.flights
+                .iter()
+                .map(|f| format!("{:.2}-{:.2} s", f.start_secs, f.end_secs))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    });
+    out.push(format!(
+        "method {}{}",
+        a.method.name(),
+        if a.running {
+            " (running: flight phases found)"
+        } else {
+            " (walking)"
+        }
+    ));
+    out.push(match &a.treadmill {
+        Some(t) => format!(
+            "treadmill ({}), belt {:.3} m/s ({}): stride and step length and speed are belt-corrected",
+            if t.declared { "declared" } else { "detected" },
+            t.belt_speed_mps,
+            if t.speed_estimated {
+                format!("estimated from {} stance-foot samples", t.stance_samples)
+            } else {
+                "given".to_owned()
+            }
+        ),
+        None => "overground".to_owned(),
+    });
+    out.push(format!("step width from {}", a.heel_source.name()));
+    out
+}
+
 /// The human-readable report.
-fn table(args: &Args, clip: &MotionClip, a: &GaitAnalysis) -> String {
+fn table(args: &Args, notes: &[String], a: &GaitAnalysis) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let _ = writeln!(
         out,
         "{}: {:.0} Hz, {:.2} s, method {}, filter {}",
         args.file.display(),
-        clip.rate_hz(),
+        a.rate_hz,
         a.duration_secs,
         a.method.name(),
         args.filter
     );
+    for note in quality_notes(notes, a) {
+        let _ = writeln!(out, "note: {note}");
+    }
     for (i, s) in a.segments.iter().enumerate() {
         let _ = writeln!(
             out,
@@ -434,12 +747,13 @@ fn table(args: &Args, clip: &MotionClip, a: &GaitAnalysis) -> String {
     let s = &a.summary;
     let _ = writeln!(
         out,
-        "strides: {} ({} left, {} right); partial strides at the ends give events, not parameters\n",
-        s.strides, s.left_strides, s.right_strides
+        "strides: {} ({} left, {} right), steps: {}; n = strides each figure rests on, \
+         or steps where marked *\n",
+        s.strides, s.left_strides, s.right_strides, s.steps
     );
     let _ = writeln!(
         out,
-        "{:<24} {:>8} {:>8} {:>8} {:>8} {:>8} {:>3}",
+        "{:<24} {:>8} {:>8} {:>8} {:>8} {:>8} {:>4}",
         "parameter", "mean", "sd", "left", "right", "asym%", "n"
     );
     let rows: [(&str, &Stat, f64, usize); 9] = [
@@ -457,14 +771,14 @@ fn table(args: &Args, clip: &MotionClip, a: &GaitAnalysis) -> String {
         let scaled = |v: Option<f64>| v.map(|v| v * scale);
         let _ = writeln!(
             out,
-            "{:<24} {:>8} {:>8} {:>8} {:>8} {:>8} {:>3}",
+            "{:<24} {:>8} {:>8} {:>8} {:>8} {:>8} {:>4}",
             name,
             cell(scaled(stat.mean), digits),
             cell(scaled(stat.sd), digits),
             cell(scaled(stat.left), digits),
             cell(scaled(stat.right), digits),
             cell(stat.asymmetry_pct, 1),
-            stat.n
+            format!("{}{}", stat.n, if stat.from_steps { "*" } else { "" })
         );
     }
     if let Some(dir) = &args.plots {

@@ -17,6 +17,7 @@ mod eval;
 mod export;
 mod gait;
 mod ranges;
+mod report;
 
 /// Markerless 3-D gait tracking from several Kinect v2 depth sensors.
 #[derive(Debug, Parser)]
@@ -39,6 +40,8 @@ enum Command {
     Gait(gait::Args),
     /// Export joint trajectories as TRC (OpenSim), C3D or CSV.
     Export(export::Args),
+    /// A self-contained HTML gait report: parameters, trajectories with events, footfall, data quality.
+    Report(report::Args),
     /// List the connected Kinect v2 sensors (serial, firmware, depth pipelines) through libfreenect2.
     Devices(devices::Args),
     /// Calibrate the rig from a walk: every sensor's pose, its uncertainty, and why when undetermined.
@@ -52,6 +55,7 @@ fn run(args: Args) -> eyre::Result<()> {
         Command::DepthMetrics(args) => depth_metrics::run(args),
         Command::Gait(args) => gait::run(args),
         Command::Export(args) => export::run(args),
+        Command::Report(args) => report::run(&args),
         Command::Devices(args) => devices::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
     }

@@ -16,7 +16,8 @@ pub enum Error {
     #[error(
         "no straight walking of at least {min_segment_secs:.2} s found in {duration_secs:.2} s of \
          motion (standing {standing_secs:.2} s, turning {turning_secs:.2} s, gaps \
-         {gap_secs:.2} s, walking too briefly {short_secs:.2} s)"
+         {gap_secs:.2} s, walking too briefly {short_secs:.2} s, feet not alternating (hopping, \
+         jumping) {not_alternating_secs:.2} s)"
     )]
     NoWalking {
         /// Length of the clip.
@@ -29,21 +30,27 @@ pub enum Error {
         gap_secs: f64,
         /// Time of walking runs shorter than the minimum segment length.
         short_secs: f64,
+        /// Time the pelvis travelled but the feet did not alternate.
+        not_alternating_secs: f64,
         /// The minimum segment length that was asked for.
         min_segment_secs: f64,
     },
     /// Too few complete strides for parameters.
     #[error(
-        "found {got} complete strides, need at least {need} (heel strikes: {heel_strikes_left} \
+        "found {got} complete strides{}, need at least {} (heel strikes: {heel_strikes_left} \
          left, {heel_strikes_right} right, in {walking_secs:.2} s of straight walking; excluded: \
          standing {standing_secs:.2} s, turning {turning_secs:.2} s, gaps {gap_secs:.2} s); a \
-         stride runs from one heel strike to the next of the same foot inside one straight segment"
+         stride runs from one heel strike to the next of the same foot inside one straight segment",
+        if *need == 0 { format!(" and {steps} steps") } else { String::new() },
+        if *need == 0 { "one step".to_owned() } else { need.to_string() }
     )]
     TooFewStrides {
         /// Complete strides found (both feet).
         got: usize,
-        /// Strides needed.
+        /// Strides needed; with 0, one step (heel strike to the other foot's next) suffices.
         need: usize,
+        /// Single steps found.
+        steps: usize,
         /// Left heel strikes found.
         heel_strikes_left: usize,
         /// Right heel strikes found.

@@ -82,17 +82,29 @@ pub enum EventMethod {
     /// (foot, else ankle) position relative to the pelvis bottoms out at toe off (the foot is
     /// furthest behind). Needs no threshold and no vertical coordinate, so it tolerates floor
     /// height errors; Zeni et al. report heel-strike errors of 1–2 frames at 120 Hz against a
-    /// force plate.
-    #[default]
+    /// force plate. Validated for walking only: in running the pelvis–foot relation it relies
+    /// on shifts, and toe off comes late.
     Coordinate,
     /// Foot-velocity method after Ghoussayni et al. (2004): a foot is in stance while its
     /// horizontal speed is below a threshold. Heel strike is where the heel (ankle) speed falls
     /// below [`EventParams::heel_strike_speed_fraction`] × the segment's walking speed at the
     /// end of a swing, toe off where the toe (foot, else ankle) speed rises above
     /// [`EventParams::toe_off_speed_fraction`] × walking speed at the start of one. Scaling
-    /// with walking speed keeps the thresholds right for slow and fast walkers.
+    /// with walking speed keeps the thresholds right for slow and fast walkers. In running
+    /// (flight phases found) the thresholds are [`EventParams::running_speed_fraction`]: a
+    /// running foot is planted and still on the floor between its landing and take-off, so
+    /// stance is where it stops, whatever the pelvis does.
     Velocity,
+    /// The coordinate method for walking, the velocity method when the clip is running (flight
+    /// phases in at least [`RUNNING_FLIGHT_FRACTION`] of the walking time). The analysis says
+    /// which it used.
+    #[default]
+    Auto,
 }
+
+/// Fraction of the walking time in flight (both feet off the floor) above which a clip is
+/// running: walking has no flight at all, running 10–40 % of each stride.
+pub const RUNNING_FLIGHT_FRACTION: f64 = 0.03;
 
 impl EventMethod {
     /// Name used on the command line and in JSON.
@@ -101,6 +113,7 @@ impl EventMethod {
         match self {
             EventMethod::Coordinate => "coordinate",
             EventMethod::Velocity => "velocity",
+            EventMethod::Auto => "auto",
         }
     }
 }
@@ -129,17 +142,23 @@ pub struct EventParams {
     /// Velocity method: a swing must reach this multiple of its threshold. Default 1.8 (a
     /// swinging foot moves at 2–3 × walking speed).
     pub swing_peak_factor: f64,
+    /// Velocity method in running: heel-strike and toe-off threshold as a fraction of the
+    /// running speed. Default 0.5: a running foot moves at 1.5–2 × running speed in swing and
+    /// is still in stance, and the pelvis no longer rolls the ankle forward over the heel as
+    /// it does in walking, so one low threshold fits both events.
+    pub running_speed_fraction: f64,
 }
 
 impl Default for EventParams {
     fn default() -> Self {
         Self {
-            method: EventMethod::Coordinate,
+            method: EventMethod::Auto,
             min_prominence_m: 0.04,
             min_separation_secs: 0.4,
             heel_strike_speed_fraction: 1.0,
             toe_off_speed_fraction: 0.4,
             swing_peak_factor: 1.8,
+            running_speed_fraction: 0.5,
         }
     }
 }
@@ -178,6 +197,11 @@ impl EventParams {
             self.toe_off_speed_fraction > 0.0,
         )?;
         check(
+            "running_speed_fraction",
+            self.running_speed_fraction,
+            self.running_speed_fraction > 0.0,
+        )?;
+        check(
             "swing_peak_factor",
             self.swing_peak_factor,
             self.swing_peak_factor >= 1.0,
@@ -204,19 +228,33 @@ pub fn detect_events(
 ) -> Result<Vec<GaitEvent>> {
     params.validate()?;
     let tracks = Tracks::from_clip(clip)?;
-    Ok(detect_in_tracks(&tracks, segmentation, params))
+    Ok(detect_in_tracks(&tracks, segmentation, params, false))
 }
 
+/// Events in every segment; `Auto` is the coordinate method unless `running`, and the velocity
+/// method uses the running thresholds when `running`.
 pub(crate) fn detect_in_tracks(
     tracks: &Tracks,
     segmentation: &Segmentation,
     params: &EventParams,
+    running: bool,
 ) -> Vec<GaitEvent> {
+    let method = match params.method {
+        EventMethod::Auto if running => EventMethod::Velocity,
+        EventMethod::Auto => EventMethod::Coordinate,
+        m => m,
+    };
+    let mut params = *params;
+    if running {
+        params.heel_strike_speed_fraction = params.running_speed_fraction;
+        params.toe_off_speed_fraction = params.running_speed_fraction;
+    }
+    let params = &params;
     let mut events = Vec::new();
     for (index, segment) in segmentation.segments.iter().enumerate() {
         for foot in Foot::BOTH {
-            match params.method {
-                EventMethod::Coordinate => {
+            match method {
+                EventMethod::Coordinate | EventMethod::Auto => {
                     coordinate_events(tracks, segment, index, foot, params, &mut events);
                 }
                 EventMethod::Velocity => {

@@ -59,23 +59,32 @@
 
 #![warn(missing_docs)]
 
+pub mod clean;
 mod error;
 mod events;
 pub mod filter;
 mod live;
 mod params;
+pub mod physics;
 pub mod plot;
 mod segment;
 mod signal;
 pub mod stream;
+pub mod treadmill;
 
+pub use clean::{CleanParams, DataQuality, clean};
 pub use error::{Error, Result};
-pub use events::{EventKind, EventMethod, EventParams, Foot, GaitEvent, detect_events};
+pub use events::{
+    EventKind, EventMethod, EventParams, Foot, GaitEvent, RUNNING_FLIGHT_FRACTION, detect_events,
+};
 pub use live::{FootCounts, LiveGait, LiveGaitParams, LiveReport, TimedEvent};
 pub use params::{
-    Comparison, GaitAnalysis, GaitParams, Stat, Stride, Summary, Tolerances, analyse, compare,
-    strides, summarise,
+    Comparison, GaitAnalysis, GaitParams, Stat, Step, Stride, Summary, Tolerances, analyse,
+    analyse_landmarks, compare, strides, summarise, summarise_with_steps,
 };
+pub use physics::{FlightPhase, PhysicsParams};
 pub use segment::{
     ExcludedPhase, ExclusionReason, SegmentParams, Segmentation, WalkingSegment, segment_walk,
 };
+pub use signal::{HeelSource, Landmarks};
+pub use treadmill::{Treadmill, TreadmillMode};

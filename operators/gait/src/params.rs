@@ -3,11 +3,14 @@
 use serde::{Deserialize, Serialize};
 use trigait_skeleton::MotionClip;
 
+use crate::clean::{CleanParams, DataQuality};
 use crate::events::{detect_in_tracks, heel_at};
+use crate::physics::{self, FlightPhase, PhysicsParams};
 use crate::segment::{
     ExcludedPhase, ExclusionReason, Segmentation, WalkingSegment, segment_tracks,
 };
-use crate::signal::{Tracks, horizontal, mean_sd};
+use crate::signal::{HeelSource, Landmarks, Tracks, horizontal, mean_sd};
+use crate::treadmill::{self, Treadmill, TreadmillMode};
 use crate::{Error, EventKind, EventParams, Foot, GaitEvent, Result, SegmentParams};
 
 /// One stride: from a heel strike of `foot` to its next heel strike in the same segment.
@@ -67,6 +70,10 @@ pub struct Stat {
     /// Symmetry index of Robinson et al. (1987): |L − R| / ((L + R)/2) × 100 (%); `None` unless
     /// both sides have values and their mean is not zero.
     pub asymmetry_pct: Option<f64>,
+    /// Whether the figure rests on single steps (heel strike to the other foot's heel strike)
+    /// because no complete stride gave it; `n` then counts steps.
+    #[serde(default)]
+    pub from_steps: bool,
 }
 
 impl Stat {
@@ -95,8 +102,64 @@ impl Stat {
             left,
             right,
             asymmetry_pct,
+            from_steps: false,
         }
     }
+
+    /// `self`, or when it has no value, the same figure from single steps.
+    fn or_steps(self, steps: &[Step], value: impl Fn(&Step) -> Option<f64>) -> Self {
+        if self.n > 0 {
+            return self;
+        }
+        let all: Vec<f64> = steps.iter().filter_map(&value).collect();
+        let side = |foot: Foot| {
+            let v: Vec<f64> = steps
+                .iter()
+                .filter(|s| s.foot == foot)
+                .filter_map(&value)
+                .collect();
+            mean_sd(&v).0
+        };
+        let (mean, sd) = mean_sd(&all);
+        let (left, right) = (side(Foot::Left), side(Foot::Right));
+        let asymmetry_pct = match (left, right) {
+            (Some(l), Some(r)) if (l + r).abs() > 1e-12 => {
+                Some((l - r).abs() / ((l + r) / 2.0).abs() * 100.0)
+            }
+            _ => None,
+        };
+        Self {
+            n: all.len(),
+            mean,
+            sd,
+            left,
+            right,
+            asymmetry_pct,
+            from_steps: true,
+        }
+    }
+}
+
+/// One step: from a heel strike of one foot to the next heel strike of the other, inside one
+/// segment. Steps give cadence, step length and width where a walk is too short for strides.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Step {
+    /// The foot whose heel strike ends the step.
+    pub foot: Foot,
+    /// Index of the walking segment.
+    pub segment: usize,
+    /// Time of the opening heel strike (s).
+    pub start_secs: f64,
+    /// Time of the closing heel strike (s).
+    pub end_secs: f64,
+    /// Step time (s).
+    pub step_time_secs: f64,
+    /// Cadence of this step: 60 / step time (steps/min).
+    pub cadence_steps_per_min: f64,
+    /// Heel-to-heel distance along the segment's walking direction (m).
+    pub step_length_m: Option<f64>,
+    /// Heel-to-heel distance across the segment's walking direction (m).
+    pub step_width_m: Option<f64>,
 }
 
 /// The spatiotemporal parameters summarised over strides ([`Stride`] defines each).
@@ -108,6 +171,9 @@ pub struct Summary {
     pub left_strides: usize,
     /// Complete right strides.
     pub right_strides: usize,
+    /// Single steps (heel strike to the other foot's heel strike).
+    #[serde(default)]
+    pub steps: usize,
     /// Stride length (m).
     pub stride_length_m: Stat,
     /// Step length (m).
@@ -131,7 +197,27 @@ pub struct Summary {
 /// Summarises strides: mean, sd and asymmetry of every parameter.
 #[must_use]
 pub fn summarise(strides: &[Stride]) -> Summary {
+    summarise_with_steps(strides, &[])
+}
+
+/// Summarises strides, and where no stride gives a figure (cadence, step length, step width,
+/// stride time), the single steps: a 10 m walkway may show one stride or none, yet several
+/// steps. [`Stat::from_steps`] says which figures rest on steps.
+#[must_use]
+pub fn summarise_with_steps(strides: &[Stride], steps: &[Step]) -> Summary {
+    let mut s = summarise_strides(strides);
+    s.cadence_steps_per_min = s
+        .cadence_steps_per_min
+        .or_steps(steps, |st| Some(st.cadence_steps_per_min));
+    s.step_length_m = s.step_length_m.or_steps(steps, |st| st.step_length_m);
+    s.step_width_m = s.step_width_m.or_steps(steps, |st| st.step_width_m);
+    s.steps = steps.len();
+    s
+}
+
+fn summarise_strides(strides: &[Stride]) -> Summary {
     Summary {
+        steps: 0,
         strides: strides.len(),
         left_strides: strides.iter().filter(|s| s.foot == Foot::Left).count(),
         right_strides: strides.iter().filter(|s| s.foot == Foot::Right).count(),
@@ -202,6 +288,53 @@ fn strides_in_tracks(
         }
     }
     out.sort_by(|a, b| a.start_secs.total_cmp(&b.start_secs));
+    out
+}
+
+/// Steps from events: each heel strike followed, before its own foot's next one, by a heel strike
+/// of the other foot in the same segment.
+fn steps_in_tracks(
+    tracks: &Tracks,
+    segmentation: &Segmentation,
+    events: &[GaitEvent],
+) -> Vec<Step> {
+    let mut out = Vec::new();
+    for (index, segment) in segmentation.segments.iter().enumerate() {
+        let d = segment.direction();
+        let left = segment.left();
+        let strikes: Vec<&GaitEvent> = events
+            .iter()
+            .filter(|e| e.segment == index && e.kind == EventKind::HeelStrike)
+            .collect();
+        for pair in strikes.windows(2) {
+            let (a, b) = (pair[0], pair[1]);
+            if a.foot == b.foot {
+                continue;
+            }
+            let time = (b.frame - a.frame) / tracks.rate_hz;
+            if time <= 0.0 {
+                continue;
+            }
+            let positions = heel_at(tracks, a.foot, a.frame).zip(heel_at(tracks, b.foot, b.frame));
+            let (length, width) = match positions {
+                Some((pa, pb)) => {
+                    let v = horizontal(&(pb - pa));
+                    (Some(v.dot(&d)), Some(v.dot(&left).abs()))
+                }
+                None => (None, None),
+            };
+            out.push(Step {
+                foot: b.foot,
+                segment: index,
+                start_secs: a.time_secs,
+                end_secs: b.time_secs,
+                step_time_secs: time,
+                cadence_steps_per_min: 60.0 / time,
+                step_length_m: length,
+                step_width_m: width,
+            });
+        }
+    }
     out
 }
 
@@ -276,8 +409,20 @@ pub struct GaitParams {
     pub segments: SegmentParams,
     /// Event detection.
     pub events: EventParams,
-    /// Fewest complete strides (both feet together) for a result. Default 2.
+    /// Fewest complete strides (both feet together) for a result. Default 0: figures then rest
+    /// on single steps where no stride exists, and the result says so; at least one step or
+    /// stride is always needed.
     pub min_strides: usize,
+    /// Outlier rejection and gap bridging before the events.
+    pub clean: CleanParams,
+    /// Airborne checks and flight phases.
+    pub physics: PhysicsParams,
+    /// Treadmill or overground.
+    pub treadmill: TreadmillMode,
+    /// Left and right heel signals must correlate below this (−1 = perfect alternation) for a
+    /// segment to be gait. Default −0.3: walking and running give −0.8 to −1, two-footed hops
+    /// and jumps +0.5 to +1.
+    pub max_alternation_correlation: f64,
 }
 
 impl Default for GaitParams {
@@ -285,7 +430,11 @@ impl Default for GaitParams {
         Self {
             segments: SegmentParams::default(),
             events: EventParams::default(),
-            min_strides: 2,
+            min_strides: 0,
+            clean: CleanParams::default(),
+            physics: PhysicsParams::default(),
+            treadmill: TreadmillMode::Auto,
+            max_alternation_correlation: -0.3,
         }
     }
 }
@@ -297,8 +446,24 @@ pub struct GaitAnalysis {
     pub rate_hz: f64,
     /// Duration of the analysed clip (s).
     pub duration_secs: f64,
-    /// Event detector used.
+    /// Event detector used (never `Auto`: the one it chose).
     pub method: crate::EventMethod,
+    /// Whether the clip was found to be running (flight phases), which chose the velocity
+    /// method when the method was `Auto`.
+    pub running: bool,
+    /// Flight phases (both feet off the floor), in time order.
+    pub flights: Vec<FlightPhase>,
+    /// The treadmill correction applied, if any: stride and step length and speed are then
+    /// belt-corrected.
+    pub treadmill: Option<Treadmill>,
+    /// What stood in for the heels (event detection and step width).
+    pub heel_source: HeelSource,
+    /// Rejected and bridged samples.
+    pub quality: DataQuality,
+    /// Events the detectors proposed that were dropped because the foot was airborne.
+    pub rejected_events: usize,
+    /// Single steps, by start time.
+    pub steps: Vec<Step>,
     /// Straight walking segments.
     pub segments: Vec<WalkingSegment>,
     /// Excluded standing, turning, gap and too-short phases.
@@ -320,18 +485,47 @@ impl GaitAnalysis {
     }
 }
 
-/// Segments, detects events, builds strides and summarises them.
+/// Segments, detects events, builds strides and summarises them; see [`analyse_landmarks`].
 ///
 /// # Errors
-/// [`Error::MissingJoint`], [`Error::BadParameter`]; [`Error::NoWalking`] when no straight
-/// walking segment is found (standing subject, gaps everywhere, a turn-only clip);
-/// [`Error::TooFewStrides`] below [`GaitParams::min_strides`] complete strides.
+/// As [`analyse_landmarks`], and [`Error::MissingJoint`] without ankles or a pelvis.
 pub fn analyse(clip: &MotionClip, params: &GaitParams) -> Result<GaitAnalysis> {
+    let landmarks = Landmarks::from_clip(clip)?;
+    analyse_landmarks(&landmarks, params)
+}
+
+/// The full analysis of landmark tracks:
+///
+/// 1. outliers rejected and short gaps bridged ([`crate::clean()`]);
+/// 2. stance levels and flight phases ([`crate::physics`]);
+/// 3. the treadmill correction when declared or detected ([`crate::treadmill`]);
+/// 4. straight walking segments; a segment whose feet do not alternate is excluded
+///    ([`ExclusionReason::NotAlternating`]);
+/// 5. events (method chosen for walking or running when `Auto`), dropping any whose foot is
+///    airborne;
+/// 6. strides, steps and their summary.
+///
+/// # Errors
+/// [`Error::BadParameter`]; [`Error::NoWalking`] when no straight, alternating walking segment
+/// is found (standing subject, gaps everywhere, a turn-only clip, hopping);
+/// [`Error::TooFewStrides`] below [`GaitParams::min_strides`] complete strides, or with neither
+/// a stride nor a step.
+pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<GaitAnalysis> {
     params.segments.validate()?;
     params.events.validate()?;
-    let tracks = Tracks::from_clip(clip)?;
-    let rate = clip.rate_hz();
-    let segmentation = segment_tracks(&tracks, &params.segments);
+    params.physics.validate()?;
+    landmarks.validate()?;
+    let mut tracks = landmarks.clone();
+    let quality = crate::clean::clean(&mut tracks, &params.clean)?;
+    let heights = physics::heights(&tracks, &params.physics);
+    let treadmill = treadmill::correct(&mut tracks, &heights, params.treadmill);
+    let rate = tracks.rate_hz;
+    let mut segmentation = segment_tracks(&tracks, &params.segments);
+    exclude_non_alternating(
+        &tracks,
+        &mut segmentation,
+        params.max_alternation_correlation,
+    );
     if segmentation.segments.is_empty() {
         return Err(Error::NoWalking {
             duration_secs: tracks.len() as f64 / rate,
@@ -339,12 +533,43 @@ pub fn analyse(clip: &MotionClip, params: &GaitParams) -> Result<GaitAnalysis> {
             turning_secs: segmentation.excluded_secs(ExclusionReason::Turning, rate),
             gap_secs: segmentation.excluded_secs(ExclusionReason::Gap, rate),
             short_secs: segmentation.excluded_secs(ExclusionReason::TooShort, rate),
+            not_alternating_secs: segmentation.excluded_secs(ExclusionReason::NotAlternating, rate),
             min_segment_secs: params.segments.min_segment_secs,
         });
     }
-    let events = detect_in_tracks(&tracks, &segmentation, &params.events);
+    let walking_frames: usize = segmentation
+        .segments
+        .iter()
+        .map(|s| s.last_frame - s.first_frame + 1)
+        .sum();
+    let flight_frames: usize = segmentation
+        .segments
+        .iter()
+        .map(|s| heights.flight_frames(s.first_frame, s.last_frame))
+        .sum();
+    let running =
+        flight_frames as f64 >= crate::events::RUNNING_FLIGHT_FRACTION * walking_frames as f64;
+    let proposed = detect_in_tracks(&tracks, &segmentation, &params.events, running);
+    let proposed_count = proposed.len();
+    let events: Vec<GaitEvent> = proposed
+        .into_iter()
+        .filter(|e| {
+            heights.allows(
+                e.foot,
+                e.kind == EventKind::HeelStrike,
+                e.frame,
+                params.physics.event_gate_m,
+            )
+        })
+        .collect();
+    let rejected_events = proposed_count - events.len();
+    let mut events = events;
+    if tracks.heel_source == HeelSource::HeelMarker {
+        refine_heel_strikes(&tracks, &mut events);
+    }
     let strides = strides_in_tracks(&tracks, &segmentation, &events);
-    if strides.len() < params.min_strides {
+    let steps = steps_in_tracks(&tracks, &segmentation, &events);
+    if strides.len() < params.min_strides || (strides.is_empty() && steps.is_empty()) {
         let count = |foot| {
             events
                 .iter()
@@ -354,6 +579,7 @@ pub fn analyse(clip: &MotionClip, params: &GaitParams) -> Result<GaitAnalysis> {
         return Err(Error::TooFewStrides {
             got: strides.len(),
             need: params.min_strides,
+            steps: steps.len(),
             heel_strikes_left: count(Foot::Left),
             heel_strikes_right: count(Foot::Right),
             walking_secs: segmentation.walking_secs(rate),
@@ -362,17 +588,137 @@ pub fn analyse(clip: &MotionClip, params: &GaitParams) -> Result<GaitAnalysis> {
             gap_secs: segmentation.excluded_secs(ExclusionReason::Gap, rate),
         });
     }
-    let summary = summarise(&strides);
+    let summary = summarise_with_steps(&strides, &steps);
+    let method = match params.events.method {
+        crate::EventMethod::Auto if running => crate::EventMethod::Velocity,
+        crate::EventMethod::Auto => crate::EventMethod::Coordinate,
+        m => m,
+    };
     Ok(GaitAnalysis {
         rate_hz: rate,
-        duration_secs: clip.duration_secs(),
-        method: params.events.method,
+        duration_secs: tracks.len().saturating_sub(1) as f64 / rate,
+        method,
+        running,
+        flights: heights.flights.clone(),
+        treadmill,
+        heel_source: tracks.heel_source,
+        quality,
+        rejected_events,
         segments: segmentation.segments,
         excluded: segmentation.excluded,
         events,
         strides,
+        steps,
         summary,
     })
+}
+
+/// The heel marker stops descending this slowly (m/s) when it lands: well below the swing's
+/// 0.3–0.6 m/s descent, above marker jitter at 100 Hz.
+const HEEL_LANDED_MPS: f64 = 0.02;
+
+/// How far after the coordinate method's heel strike the landing is sought (s).
+const HEEL_LANDING_SEARCH_SECS: f64 = 0.12;
+
+/// Moves each heel strike found on a heel *marker* to where the marker stops descending.
+///
+/// The coordinate method marks the instant the heel is furthest ahead of the pelvis, which on
+/// force plates comes 40–50 ms before the vertical force reaches 20 N (measured on the four
+/// force-plate recordings in `shared/data`, for heel markers and ankle centres alike): the heel
+/// is still coming down. The landing itself is when the marker's downward speed falls below
+/// [`HEEL_LANDED_MPS`], found within [`HEEL_LANDING_SEARCH_SECS`] after the candidate (linear
+/// interpolation between frames); without such a moment the candidate stays. Skeleton ankles are
+/// too noisy in height for this and keep the coordinate-method instant.
+fn refine_heel_strikes(tracks: &Tracks, events: &mut [GaitEvent]) {
+    let rate = tracks.rate_hz;
+    let search = (HEEL_LANDING_SEARCH_SECS * rate).ceil() as usize;
+    for e in events
+        .iter_mut()
+        .filter(|e| e.kind == EventKind::HeelStrike)
+    {
+        let z = |f: usize| {
+            tracks.heel[e.foot.index()]
+                .get(f)
+                .copied()
+                .flatten()
+                .map(|p| p.z)
+        };
+        let vz =
+            |f: usize| -> Option<f64> { Some((z(f + 1)? - z(f.checked_sub(1)?)?) * rate / 2.0) };
+        let start = e.frame.floor().max(1.0) as usize;
+        let mut previous: Option<(usize, f64)> = None;
+        for f in start..=start + search {
+            let Some(v) = vz(f) else { break };
+            if v >= -HEEL_LANDED_MPS {
+                let frame = match previous {
+                    Some((p, pv)) if (v - pv).abs() > 1e-12 => {
+                        p as f64 + ((-HEEL_LANDED_MPS - pv) / (v - pv)).clamp(0.0, 1.0)
+                    }
+                    _ => f as f64,
+                };
+                let frame = frame.max(e.frame);
+                e.frame = frame;
+                e.time_secs = frame / rate;
+                break;
+            }
+            previous = Some((f, v));
+        }
+    }
+}
+
+/// Pearson correlation of two equally long series; `None` without variance.
+fn correlation(a: &[f64], b: &[f64]) -> Option<f64> {
+    let n = a.len().min(b.len());
+    if n < 3 {
+        return None;
+    }
+    let (ma, mb) = (
+        a[..n].iter().sum::<f64>() / n as f64,
+        b[..n].iter().sum::<f64>() / n as f64,
+    );
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for i in 0..n {
+        let (x, y) = (a[i] - ma, b[i] - mb);
+        sab += x * y;
+        saa += x * x;
+        sbb += y * y;
+    }
+    (saa > 1e-12 && sbb > 1e-12).then(|| sab / (saa * sbb).sqrt())
+}
+
+/// Moves segments whose left and right heels do not alternate (relative to the pelvis, along
+/// the walking direction) to the excluded phases.
+fn exclude_non_alternating(tracks: &Tracks, segmentation: &mut Segmentation, max_corr: f64) {
+    let mut kept = Vec::new();
+    for segment in std::mem::take(&mut segmentation.segments) {
+        let d = segment.direction();
+        let (mut l, mut r) = (Vec::new(), Vec::new());
+        for f in segment.first_frame..=segment.last_frame {
+            let rel = |s: usize| -> Option<f64> {
+                let h = tracks.heel[s].get(f).copied().flatten()?;
+                let p = tracks.pelvis.get(f).copied().flatten()?;
+                Some(horizontal(&(h - p)).dot(&d))
+            };
+            if let (Some(a), Some(b)) = (rel(0), rel(1)) {
+                l.push(a);
+                r.push(b);
+            }
+        }
+        // No variance at all: the feet do not move relative to the pelvis, no stepping either.
+        match correlation(&l, &r).or(Some(1.0)) {
+            Some(c) if c > max_corr => segmentation.excluded.push(ExcludedPhase {
+                reason: ExclusionReason::NotAlternating,
+                start_secs: segment.start_secs,
+                end_secs: segment.end_secs,
+                frames: segment.last_frame - segment.first_frame + 1,
+            }),
+            _ => kept.push(segment),
+        }
+    }
+    segmentation.segments = kept;
+    segmentation
+        .excluded
+        .sort_by(|a, b| a.start_secs.total_cmp(&b.start_secs));
 }
 
 /// How far an estimate may be from the reference for [`Comparison::within`].

@@ -447,6 +447,7 @@ fn draw_footfall<DB: DrawingBackend>(
             ExclusionReason::Turning => "turning",
             ExclusionReason::Gap => "gap",
             ExclusionReason::TooShort => "short",
+            ExclusionReason::NotAlternating => "not gait",
         };
         chart.draw_series(std::iter::once(Rectangle::new(
             [(phase.start_secs, -0.9), (phase.end_secs, 1.7)],

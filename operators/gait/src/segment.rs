@@ -125,6 +125,9 @@ pub enum ExclusionReason {
     Gap,
     /// Walking, but for less than [`SegmentParams::min_segment_secs`].
     TooShort,
+    /// The pelvis travelled, but the feet did not alternate (hopping, jumping, shuffling with
+    /// both feet together): not gait, so no strides.
+    NotAlternating,
 }
 
 impl ExclusionReason {
@@ -136,6 +139,7 @@ impl ExclusionReason {
             ExclusionReason::Turning => "turning",
             ExclusionReason::Gap => "gap",
             ExclusionReason::TooShort => "too_short",
+            ExclusionReason::NotAlternating => "not_alternating",
         }
     }
 }
@@ -202,7 +206,9 @@ enum Class {
 /// averages out the sway within a stride. A frame is *standing* when that speed is below
 /// [`SegmentParams::min_speed_mps`], *turning* when the heading of that velocity changes faster
 /// than [`SegmentParams::max_turn_rate_rad_per_s`] (measured over half a window), a *gap* when
-/// the pelvis, an ankle or a toe stand-in is missing, and *walking* otherwise. Gaps up to
+/// the pelvis or a heel (ankle) is missing (one heel suffices while the other foot is out of
+/// view at an end of the clip, see [`crate::Landmarks::complete_frames`]), and *walking*
+/// otherwise. Gaps up to
 /// [`SegmentParams::max_bridged_gap_secs`] between walking frames are bridged (and reported).
 /// Runs of walking frames at least [`SegmentParams::min_segment_secs`] long become
 /// [`WalkingSegment`]s; the
@@ -221,7 +227,7 @@ pub fn segment_walk(clip: &MotionClip, params: &SegmentParams) -> Result<Segment
 pub(crate) fn segment_tracks(tracks: &Tracks, params: &SegmentParams) -> Segmentation {
     let n = tracks.len();
     let rate = tracks.rate_hz;
-    let complete: Vec<bool> = (0..n).map(|f| tracks.complete(f)).collect();
+    let complete = tracks.complete_frames();
     // Bounds of the run of complete frames holding each frame.
     let mut run_start = vec![0usize; n];
     let mut run_end = vec![0usize; n];

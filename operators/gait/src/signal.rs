@@ -1,23 +1,64 @@
 //! Small signal helpers shared by segmentation and event detection.
 
 use nalgebra::{Point3, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
 use trigait_skeleton::{Joint, MotionClip};
 
 use crate::{Error, Foot, Result};
 
-/// The trajectories gait analysis reads, one entry per frame (`None` = gap).
-#[derive(Debug, Clone)]
-pub(crate) struct Tracks {
-    pub rate_hz: f64,
-    /// Hip mid-point, else `SpineBase`.
-    pub pelvis: Vec<Option<Point3<f64>>>,
-    /// Heel stand-ins (ankles), left then right.
-    pub heel: [Vec<Option<Point3<f64>>>; 2],
-    /// Toe stand-ins (`Foot*` when present, else the ankles), left then right.
-    pub toe: [Vec<Option<Point3<f64>>>; 2],
+/// What stands in for the heel in the event and step-width computations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HeelSource {
+    /// A calcaneus marker: the definition gait labs use for step width.
+    HeelMarker,
+    /// The ankle joint centre (skeletons, joint-centre files): it sits a few centimetres medial
+    /// and above the heel, so step width reads wider than the heel-marker definition.
+    AnkleCentre,
 }
 
-impl Tracks {
+impl HeelSource {
+    /// How tables and reports name it.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            HeelSource::HeelMarker => "heel markers",
+            HeelSource::AnkleCentre => "ankle centres",
+        }
+    }
+}
+
+/// The trajectories gait analysis reads, one entry per frame (`None` = gap), in the world frame
+/// (metres, Z up).
+///
+/// Built from joint centres by [`Landmarks::from_clip`] (ankles for heels, `Foot*` joints for
+/// toes), or directly from skin markers (heel, toe and pelvis markers, as Zeni et al. 2008 used
+/// them) by whoever reads the markers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Landmarks {
+    /// Frames per second.
+    pub rate_hz: f64,
+    /// Pelvis path: hip mid-point, `SpineBase`, or the centroid of the pelvis markers.
+    pub pelvis: Vec<Option<Point3<f64>>>,
+    /// Heels (or their stand-ins), left then right.
+    pub heel: [Vec<Option<Point3<f64>>>; 2],
+    /// Toes (or their stand-ins, the ankles when nothing better exists), left then right.
+    /// Optional per frame: a missing toe only means no toe off is detected there.
+    pub toe: [Vec<Option<Point3<f64>>>; 2],
+    /// What `heel` holds.
+    pub heel_source: HeelSource,
+}
+
+/// The internal name of [`Landmarks`].
+pub(crate) type Tracks = Landmarks;
+
+impl Landmarks {
+    /// Landmarks of a joint-centre clip: pelvis = hip mid-point (else `SpineBase`), heels =
+    /// ankles, toes = `FootLeft`/`FootRight` where the clip has them (frame by frame: a frame
+    /// without its foot joint keeps the ankle as toe only if the clip has no foot joint at all).
+    ///
+    /// # Errors
+    /// [`Error::MissingJoint`] without ankles or a pelvis.
     pub fn from_clip(clip: &MotionClip) -> Result<Self> {
         for joint in [Joint::AnkleLeft, Joint::AnkleRight] {
             if !clip.has(joint) {
@@ -37,14 +78,20 @@ impl Tracks {
         let n = clip.frame_count();
         let pelvis = (0..n)
             .map(|f| {
-                if hips {
-                    match (
-                        clip.position(f, Joint::HipLeft),
-                        clip.position(f, Joint::HipRight),
-                    ) {
-                        (Some(l), Some(r)) => Some(nalgebra::center(&l, &r)),
-                        _ => None,
-                    }
+                let hip_mid = match (
+                    clip.position(f, Joint::HipLeft),
+                    clip.position(f, Joint::HipRight),
+                ) {
+                    (Some(l), Some(r)) => Some(nalgebra::center(&l, &r)),
+                    _ => None,
+                };
+                if hips && clip.has(Joint::SpineBase) {
+                    // Hips preferred; SpineBase bridges a frame that lost a hip (a Kinect
+                    // reports SpineBase between the hips, so the two paths agree within a few cm
+                    // and the per-frame fallback stays far below a step).
+                    hip_mid.or_else(|| clip.position(f, Joint::SpineBase))
+                } else if hips {
+                    hip_mid
                 } else {
                     clip.position(f, Joint::SpineBase)
                 }
@@ -63,21 +110,73 @@ impl Tracks {
             pelvis,
             heel: [track(Joint::AnkleLeft), track(Joint::AnkleRight)],
             toe: [track(toe_joint(Foot::Left)), track(toe_joint(Foot::Right))],
+            heel_source: HeelSource::AnkleCentre,
         })
     }
 
+    /// Number of frames.
+    #[must_use]
     pub fn len(&self) -> usize {
         self.pelvis.len()
     }
 
-    /// Whether every track has a sample at `frame`.
-    pub fn complete(&self, frame: usize) -> bool {
-        let ok = |v: &Vec<Option<Point3<f64>>>| v.get(frame).copied().flatten().is_some();
-        ok(&self.pelvis) && self.heel.iter().all(ok) && self.toe.iter().all(ok)
+    /// Whether there are no frames.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.pelvis.is_empty()
     }
 
-    pub fn time(&self, frame: f64) -> f64 {
+    /// Per frame, whether it can be analysed: the pelvis and both heels have a sample, or one
+    /// heel has and the other foot is out of view at an end of the clip (before its first or
+    /// after its last sample: not yet in, or already out of, the capture volume), so that foot's
+    /// last events are still found. A heel missing between samples is a dropout, a gap, and so
+    /// is a foot never seen.
+    #[must_use]
+    pub fn complete_frames(&self) -> Vec<bool> {
+        let seen = |v: &Vec<Option<Point3<f64>>>| {
+            let first = v.iter().position(Option::is_some);
+            let last = v.iter().rposition(Option::is_some);
+            first.zip(last)
+        };
+        let spans = [seen(&self.heel[0]), seen(&self.heel[1])];
+        (0..self.len())
+            .map(|f| {
+                let ok = |v: &Vec<Option<Point3<f64>>>| v.get(f).copied().flatten().is_some();
+                let present = [ok(&self.heel[0]), ok(&self.heel[1])];
+                let out_of_view =
+                    |k: usize| spans[k].is_some_and(|(first, last)| f < first || f > last);
+                ok(&self.pelvis)
+                    && present.iter().any(|p| *p)
+                    && (0..2).all(|k| present[k] || out_of_view(k))
+            })
+            .collect()
+    }
+
+    pub(crate) fn time(&self, frame: f64) -> f64 {
         frame / self.rate_hz
+    }
+
+    /// Checks the shape: a positive rate and tracks of one length.
+    pub(crate) fn validate(&self) -> Result<()> {
+        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0) {
+            return Err(Error::BadParameter {
+                name: "rate_hz",
+                value: self.rate_hz,
+                expected: "a positive frame rate",
+            });
+        }
+        let n = self.len();
+        let lengths = self.heel.iter().chain(self.toe.iter()).map(Vec::len);
+        for len in lengths {
+            if len != n {
+                return Err(Error::BadParameter {
+                    name: "landmark track length",
+                    value: len as f64,
+                    expected: "every track as long as the pelvis track",
+                });
+            }
+        }
+        Ok(())
     }
 }
 

@@ -104,13 +104,28 @@ pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
     };
     let rate_hz = f64::from(points.frame_rate);
     let (rows, cols) = (points.rows(), points.cols());
-    if points.labels.len() < cols {
+    // More than 255 points: POINT:LABELS continues in LABELS2, LABELS3, … (C3D spec).
+    let mut all_labels = points.labels.clone();
+    for k in 2.. {
+        if all_labels.len() >= cols {
+            break;
+        }
+        let Some(more) = c3d.parameters.get("POINT", &format!("LABELS{k}")) else {
+            break;
+        };
+        let more: Vec<String> = more.try_into().unwrap_or_default();
+        if more.is_empty() {
+            break;
+        }
+        all_labels.extend(more);
+    }
+    if all_labels.len() < cols {
         return Err(c3d_error(
             path,
-            format!("{cols} points but only {} labels", points.labels.len()),
+            format!("{cols} points but only {} labels", all_labels.len()),
         ));
     }
-    let labels: Vec<String> = points.labels[..cols]
+    let labels: Vec<String> = all_labels[..cols]
         .iter()
         .map(|l| l.trim().to_string())
         .collect();

@@ -28,7 +28,7 @@
 use nalgebra::{Point3, Unit, Vector3};
 use trigait_skeleton::{Joint, MotionClip};
 
-use crate::{Error, MarkerSet, Result};
+use crate::{Error, Landmark, MarkerSet, Result};
 
 /// Joint widths and marker size for the lateral-marker offsets.
 ///
@@ -58,59 +58,60 @@ impl Default for JointCentreParams {
 const LEFT: usize = 0;
 const RIGHT: usize = 1;
 
-/// Marker aliases (normalised: no case, no `.`/`_`/`-`), `{}` is the side letter `l` or `r`.
-const ASIS: &[&str] = &["{}asis", "{}asi", "{}fwt"];
-const PSIS: &[&str] = &["{}psis", "{}psi", "{}bwt"];
-const SACRUM: &[&str] = &["sacr", "sacrum", "s2"];
-const KNEE_LATERAL: &[&str] = &[
-    "{}kne",
-    "{}knee",
-    "{}kneelat",
-    "{}latknee",
-    "{}lfe",
-    "{}lkne",
-];
-const KNEE_MEDIAL: &[&str] = &[
-    "{}knm",
-    "{}mkne",
-    "{}kneemed",
-    "{}kneemedial",
-    "{}medknee",
-    "{}mfe",
-];
-const ANKLE_LATERAL: &[&str] = &[
-    "{}ank",
-    "{}ankle",
-    "{}anklelat",
-    "{}latankle",
-    "{}lmal",
-    "{}lank",
-];
-const ANKLE_MEDIAL: &[&str] = &[
-    "{}anm",
-    "{}mank",
-    "{}anklemed",
-    "{}anklemedial",
-    "{}medankle",
-    "{}mmal",
-];
-const TOE: &[&str] = &["{}toe", "{}mt2", "{}toe2"];
-
-fn sided(aliases: &[&str], side: usize) -> Vec<String> {
-    let letter = if side == LEFT { "l" } else { "r" };
-    aliases.iter().map(|a| a.replace("{}", letter)).collect()
+fn side_letter(side: usize) -> char {
+    if side == LEFT { 'l' } else { 'r' }
 }
 
-fn find(set: &MarkerSet, aliases: &[String]) -> Option<usize> {
-    let refs: Vec<&str> = aliases.iter().map(String::as_str).collect();
-    set.find_marker(&refs)
+fn find(set: &MarkerSet, landmark: Landmark, side: usize) -> Option<usize> {
+    set.landmark(landmark, side_letter(side))
 }
 
-fn require(set: &MarkerSet, aliases: &[String], joint: Joint, role: &'static str) -> Result<usize> {
-    find(set, aliases).ok_or_else(|| Error::MissingMarker {
+/// The accepted names of `landmarks` on `side`, for an error message.
+fn candidates(landmarks: &[Landmark], side: usize) -> String {
+    landmarks
+        .iter()
+        .flat_map(|l| {
+            if l.sided() {
+                l.labels_for(side_letter(side))
+            } else {
+                l.aliases().iter().map(|a| a.to_string()).collect()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// What the file holds, for an error message: its skin-marker labels (model outputs left out).
+pub(crate) fn found_markers(set: &MarkerSet) -> String {
+    let labels = set.marker_labels();
+    const SHOWN: usize = 60;
+    let mut text = labels
+        .iter()
+        .take(SHOWN)
+        .map(|l| format!("{l:?}"))
+        .collect::<Vec<_>>()
+        .join(" ");
+    if labels.len() > SHOWN {
+        text.push_str(&format!(" … ({} more)", labels.len() - SHOWN));
+    }
+    if text.is_empty() {
+        text = "no skin markers".to_string();
+    }
+    text
+}
+
+fn require(
+    set: &MarkerSet,
+    landmark: Landmark,
+    side: usize,
+    joint: Joint,
+    role: &'static str,
+) -> Result<usize> {
+    find(set, landmark, side).ok_or_else(|| Error::MissingMarker {
         joint,
         role,
-        candidates: aliases.join(", "),
+        candidates: candidates(&[landmark], side),
+        found: found_markers(set),
     })
 }
 
@@ -135,44 +136,48 @@ impl Columns {
         let knee = [Joint::KneeLeft, Joint::KneeRight];
         let ankle = [Joint::AnkleLeft, Joint::AnkleRight];
         let asis = [
-            require(set, &sided(ASIS, LEFT), hip[LEFT], "left ASIS")?,
-            require(set, &sided(ASIS, RIGHT), hip[RIGHT], "right ASIS")?,
+            require(set, Landmark::Asis, LEFT, hip[LEFT], "left ASIS")?,
+            require(set, Landmark::Asis, RIGHT, hip[RIGHT], "right ASIS")?,
         ];
         let psis = match (
-            find(set, &sided(PSIS, LEFT)),
-            find(set, &sided(PSIS, RIGHT)),
+            find(set, Landmark::Psis, LEFT),
+            find(set, Landmark::Psis, RIGHT),
         ) {
             (Some(l), Some(r)) => PsisColumns::Pair([l, r]),
-            _ => {
-                let candidates: Vec<String> = sided(PSIS, LEFT)
-                    .into_iter()
-                    .chain(sided(PSIS, RIGHT))
-                    .chain(SACRUM.iter().map(|s| s.to_string()))
-                    .collect();
-                PsisColumns::Sacrum(require(
-                    set,
-                    &candidates,
-                    Joint::SpineBase,
-                    "PSIS or sacrum",
-                )?)
-            }
+            _ => match find(set, Landmark::Sacrum, LEFT) {
+                Some(s) => PsisColumns::Sacrum(s),
+                None => {
+                    return Err(Error::MissingMarker {
+                        joint: Joint::SpineBase,
+                        role: "PSIS or sacrum",
+                        candidates: format!(
+                            "{}, {}, {}",
+                            candidates(&[Landmark::Psis], LEFT),
+                            candidates(&[Landmark::Psis], RIGHT),
+                            candidates(&[Landmark::Sacrum], LEFT)
+                        ),
+                        found: found_markers(set),
+                    });
+                }
+            },
         };
         let side_columns = |side: usize| -> Result<_> {
             Ok((
                 (
-                    require(set, &sided(KNEE_LATERAL, side), knee[side], "lateral knee")?,
-                    find(set, &sided(KNEE_MEDIAL, side)),
+                    require(set, Landmark::KneeLateral, side, knee[side], "lateral knee")?,
+                    find(set, Landmark::KneeMedial, side),
                 ),
                 (
                     require(
                         set,
-                        &sided(ANKLE_LATERAL, side),
+                        Landmark::AnkleLateral,
+                        side,
                         ankle[side],
                         "lateral ankle",
                     )?,
-                    find(set, &sided(ANKLE_MEDIAL, side)),
+                    find(set, Landmark::AnkleMedial, side),
                 ),
-                find(set, &sided(TOE, side)),
+                find(set, Landmark::Toe, side),
             ))
         };
         let (knee_l, ankle_l, toe_l) = side_columns(LEFT)?;
@@ -389,6 +394,97 @@ pub fn joint_centres_with(markers: &MarkerSet, params: &JointCentreParams) -> Re
     )?)
 }
 
+/// The skin markers gait events are read from, as gait labs use them (Zeni et al. 2008): a
+/// pelvis point, the heels (calcaneus) and the toes, each one trajectory per frame (`None` =
+/// gap), in metres, Z up.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FootMarkers {
+    /// Pelvis point: the mean of the ASIS mid-point and the PSIS mid-point (or sacrum) when
+    /// all are there, else the sacrum or PSIS mid-point alone, else the ASIS mid-point.
+    pub pelvis: Vec<Option<Point3<f64>>>,
+    /// Heel markers, left then right.
+    pub heel: [Vec<Option<Point3<f64>>>; 2],
+    /// Toe markers, left then right; `None` throughout when the file has none.
+    pub toe: [Option<Vec<Option<Point3<f64>>>>; 2],
+    /// The labels used, as written in the file: pelvis markers, then heels, then toes.
+    pub labels: Vec<String>,
+}
+
+/// Finds the pelvis, heel and toe markers of a marker set by [`crate::MARKER_NAMES`].
+///
+/// # Errors
+/// [`Error::MissingMarker`] without a heel marker on either side, or without any pelvis marker
+/// (ASIS pair, PSIS pair or sacrum); the error lists what the file holds.
+pub fn foot_markers(set: &MarkerSet) -> Result<FootMarkers> {
+    let asis = find(set, Landmark::Asis, LEFT).zip(find(set, Landmark::Asis, RIGHT));
+    let back = match (
+        find(set, Landmark::Psis, LEFT),
+        find(set, Landmark::Psis, RIGHT),
+    ) {
+        (Some(l), Some(r)) => Some(vec![l, r]),
+        _ => find(set, Landmark::Sacrum, LEFT).map(|s| vec![s]),
+    };
+    if asis.is_none() && back.is_none() {
+        return Err(Error::MissingMarker {
+            joint: Joint::SpineBase,
+            role: "pelvis (ASIS pair, PSIS pair or sacrum)",
+            candidates: candidates(&[Landmark::Asis, Landmark::Psis, Landmark::Sacrum], LEFT),
+            found: found_markers(set),
+        });
+    }
+    let heel_joint = [Joint::AnkleLeft, Joint::AnkleRight];
+    let heel = [LEFT, RIGHT].map(|side| {
+        require(
+            set,
+            Landmark::Heel,
+            side,
+            heel_joint[side],
+            if side == LEFT {
+                "left heel"
+            } else {
+                "right heel"
+            },
+        )
+    });
+    let [heel_l, heel_r] = heel;
+    let heel = [heel_l?, heel_r?];
+    let toe = [LEFT, RIGHT].map(|side| find(set, Landmark::Toe, side));
+    let at = |frame: usize, column: usize| set.position_at_column(frame, column);
+    let mid = |frame: usize, columns: &[usize]| -> Option<Point3<f64>> {
+        let points: Option<Vec<Point3<f64>>> = columns.iter().map(|c| at(frame, *c)).collect();
+        let points = points?;
+        let sum = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords);
+        Some(Point3::from(sum / points.len() as f64))
+    };
+    let pelvis = (0..set.frame_count())
+        .map(|f| {
+            let front = asis.and_then(|(l, r)| mid(f, &[l, r]));
+            let rear = back.as_ref().and_then(|b| mid(f, b));
+            match (asis.is_some(), back.is_some()) {
+                (true, true) => front.zip(rear).map(|(a, b)| nalgebra::center(&a, &b)),
+                (false, true) => rear,
+                _ => front,
+            }
+        })
+        .collect();
+    let mut labels: Vec<String> = asis
+        .map(|(l, r)| vec![l, r])
+        .unwrap_or_default()
+        .into_iter()
+        .chain(back.clone().unwrap_or_default())
+        .chain(heel)
+        .chain(toe.iter().flatten().copied())
+        .map(|c| set.labels()[c].clone())
+        .collect();
+    labels.dedup();
+    Ok(FootMarkers {
+        pelvis,
+        heel: heel.map(|c| set.trajectory(c)),
+        toe: toe.map(|c| c.map(|c| set.trajectory(c))),
+        labels,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use approx::assert_relative_eq;
@@ -533,7 +629,12 @@ mod tests {
                 joint,
                 role,
                 candidates,
+                found,
             }) => {
+                assert!(
+                    found.contains("\"LFOO\"") || found.contains("\"RASI\""),
+                    "{found}"
+                );
                 assert_eq!(joint, Joint::HipLeft);
                 assert_eq!(role, "left ASIS");
                 assert!(candidates.contains("lasis"));

@@ -87,7 +87,10 @@ pub enum Error {
         reason: String,
     },
     /// A joint centre needs a marker the file does not have.
-    #[error("cannot place {joint}: no {role} marker (looked for {candidates})")]
+    #[error(
+        "cannot place {joint}: no {role} marker (looked for {candidates}; the file has {found}); \
+         accepted names are listed in trigait_motion::MARKER_NAMES"
+    )]
     MissingMarker {
         /// The joint that could not be placed.
         joint: Joint,
@@ -95,6 +98,8 @@ pub enum Error {
         role: &'static str,
         /// The labels that were tried.
         candidates: String,
+        /// The skin-marker labels the file holds.
+        found: String,
     },
     /// A walker or joint-centre parameter is out of range.
     #[error("parameter {name} = {value}: {reason}")]

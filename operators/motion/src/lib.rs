@@ -52,7 +52,9 @@ mod walker;
 use std::path::Path;
 
 pub use c3d::{read_c3d, write_c3d};
-pub use centres::{JointCentreParams, joint_centres, joint_centres_with};
+pub use centres::{
+    FootMarkers, JointCentreParams, foot_markers, joint_centres, joint_centres_with,
+};
 
 /// Largest motion file (C3D, TRC, CSV, SDK skeleton text) the readers accept: 512 MiB, an hour
 /// of 300-marker capture at 100 Hz. What a reader builds from a file is bounded by a small
@@ -61,8 +63,8 @@ pub const MAX_MOTION_FILE_BYTES: u64 = 512 << 20;
 pub use csv::{CsvAppender, read_csv, write_csv};
 pub use error::{Error, Result};
 pub use lap::{there_and_back, walkway_laps};
-pub use markers::{MarkerGaps, MarkerSet};
-pub use sdk::{SdkFrame, parse_sdk_skeletons, read_sdk_skeletons};
+pub use markers::{Landmark, MARKER_NAMES, MarkerGaps, MarkerSet};
+pub use sdk::{SdkClip, SdkFrame, parse_sdk_skeletons, read_sdk_skeletons, sdk_clip};
 pub use trc::{read_trc, write_trc};
 pub use trigait_skeleton::{Joint, MotionClip};
 pub use walker::{WalkerParams, walker};

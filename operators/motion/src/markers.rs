@@ -43,6 +43,177 @@ pub(crate) fn normalised_label(label: &str) -> String {
         .collect()
 }
 
+/// An anatomical landmark a skin marker may sit on, as the joint centres and gait events use it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Landmark {
+    /// Anterior superior iliac spine (one per side).
+    Asis,
+    /// Posterior superior iliac spine (one per side).
+    Psis,
+    /// Sacrum: a single marker standing for the PSIS mid-point.
+    Sacrum,
+    /// Lateral femoral epicondyle.
+    KneeLateral,
+    /// Medial femoral epicondyle.
+    KneeMedial,
+    /// Lateral malleolus.
+    AnkleLateral,
+    /// Medial malleolus.
+    AnkleMedial,
+    /// Calcaneus (posterior heel).
+    Heel,
+    /// Forefoot: second metatarsal head or toe, else another metatarsal head.
+    Toe,
+}
+
+impl Landmark {
+    /// Every landmark, in the order of [`MARKER_NAMES`].
+    pub const ALL: [Landmark; 9] = [
+        Landmark::Asis,
+        Landmark::Psis,
+        Landmark::Sacrum,
+        Landmark::KneeLateral,
+        Landmark::KneeMedial,
+        Landmark::AnkleLateral,
+        Landmark::AnkleMedial,
+        Landmark::Heel,
+        Landmark::Toe,
+    ];
+
+    /// Whether there is one marker per side (all but the sacrum).
+    #[must_use]
+    pub fn sided(self) -> bool {
+        self != Landmark::Sacrum
+    }
+
+    /// The accepted names of this landmark, normalised (see [`MARKER_NAMES`]).
+    #[must_use]
+    pub fn aliases(self) -> &'static [&'static str] {
+        MARKER_NAMES
+            .iter()
+            .find(|(l, _)| *l == self)
+            .map_or(&[], |(_, names)| *names)
+    }
+
+    /// The accepted labels for `side` (`'l'` or `'r'`), normalised, most specific first: each
+    /// `{}` alias with the side letter and with the side word (`left`/`right`).
+    #[must_use]
+    pub fn labels_for(self, side: char) -> Vec<String> {
+        let word = if side == 'l' { "left" } else { "right" };
+        let aliases = self.aliases();
+        let letter = aliases.iter().map(|a| a.replace("{}", &side.to_string()));
+        let worded = aliases
+            .iter()
+            .filter(|a| a.contains("{}"))
+            .map(|a| a.replace("{}", word));
+        letter.chain(worded).collect()
+    }
+}
+
+/// The marker names accepted for each [`Landmark`]: the one table every lookup uses.
+///
+/// Names are compared *normalised*: the part after the last `:` (Vicon subject prefix), lower
+/// case, without `.`, `_`, `-` and spaces, so `R.ASIS`, `RASIS`, `liu:R_ASIS` and `'r asis'` are
+/// one name. `{}` is the side: the letter `l`/`r` or the word `left`/`right`. The first alias
+/// the file holds wins, so each list goes from the most to the least specific.
+///
+/// | landmark | accepted names | seen in |
+/// |---|---|---|
+/// | ASIS | `{}asis` `{}asi` `{}fwt` | OpenSim `R.ASIS`, gaitalytics `RASIS`, Plug-in Gait / CGM2 `RASI`, BTS `r asis`, CMU `RFWT` (front waist) |
+/// | PSIS | `{}psis` `{}psi` `{}bwt` | `R.PSIS`, `RPSIS`, PiG / CGM2 `RPSI`, CMU `RBWT` |
+/// | sacrum | `sacr` `sacrum` `s2` `vsacral` `sacral` | PiG `SACR`, BTS `sacrum`, OpenSim `S2`, `V.Sacral` |
+/// | lateral knee | `{}kne` `{}knee` `{}kneelat` `{}latknee` `{}lfe` `{}lek` `{}knee1` `{}lkne` | PiG / CGM2 `LKNE`, OpenSim `R.Knee`, gaitalytics `LLEK`, BTS `l knee 1` |
+/// | medial knee | `{}knm` `{}mkne` `{}kneemed` `{}kneemedial` `{}medknee` `{}mfe` `{}mek` | OpenSim `R.Knee.Medial`, gaitalytics `LMEK` |
+/// | lateral ankle | `{}ank` `{}ankle` `{}anklelat` `{}latankle` `{}lmal` `{}lm` `{}lank` | PiG / CGM2 `LANK`, OpenSim `R.Ankle`, gaitalytics `LLM` |
+/// | medial ankle | `{}anm` `{}mank` `{}anklemed` `{}anklemedial` `{}medankle` `{}mmal` `{}mm` | OpenSim `R.Ankle.Medial`, gaitalytics `LMM` |
+/// | heel | `{}hee` `{}heel` `{}cal` `{}calc` | PiG `LHEE`, OpenSim `R.Heel`, BTS `l heel` |
+/// | toe | `{}toe` `{}mt2` `{}toe2` `{}met` `{}p2m` `{}mt5` `{}mt1` | PiG `LTOE`, gaitalytics `LMT2`, BTS `l met`, OpenSim `R.Toe`, `R.MT5` last |
+pub const MARKER_NAMES: &[(Landmark, &[&str])] = &[
+    (Landmark::Asis, &["{}asis", "{}asi", "{}fwt"]),
+    (Landmark::Psis, &["{}psis", "{}psi", "{}bwt"]),
+    (
+        Landmark::Sacrum,
+        &["sacr", "sacrum", "s2", "vsacral", "sacral"],
+    ),
+    (
+        Landmark::KneeLateral,
+        &[
+            "{}kne",
+            "{}knee",
+            "{}kneelat",
+            "{}latknee",
+            "{}lfe",
+            "{}lek",
+            "{}knee1",
+            "{}lkne",
+        ],
+    ),
+    (
+        Landmark::KneeMedial,
+        &[
+            "{}knm",
+            "{}mkne",
+            "{}kneemed",
+            "{}kneemedial",
+            "{}medknee",
+            "{}mfe",
+            "{}mek",
+        ],
+    ),
+    (
+        Landmark::AnkleLateral,
+        &[
+            "{}ank",
+            "{}ankle",
+            "{}anklelat",
+            "{}latankle",
+            "{}lmal",
+            "{}lm",
+            "{}lank",
+        ],
+    ),
+    (
+        Landmark::AnkleMedial,
+        &[
+            "{}anm",
+            "{}mank",
+            "{}anklemed",
+            "{}anklemedial",
+            "{}medankle",
+            "{}mmal",
+            "{}mm",
+        ],
+    ),
+    (Landmark::Heel, &["{}hee", "{}heel", "{}cal", "{}calc"]),
+    (
+        Landmark::Toe,
+        &[
+            "{}toe", "{}mt2", "{}toe2", "{}met", "{}p2m", "{}mt5", "{}mt1",
+        ],
+    ),
+];
+
+/// Whether a label looks like a raw skin marker rather than a model output (angles, forces,
+/// moments, powers, bone points, virtual centres, unlabelled `*12`), for error messages that list
+/// what a file holds.
+fn looks_like_marker(label: &str) -> bool {
+    let n = normalised_label(label);
+    let model_suffix = [
+        "angles", "force", "forces", "moment", "moments", "power", "powers",
+    ]
+    .iter()
+    .any(|s| n.ends_with(s));
+    let bone_point = n.len() == 4
+        && [
+            "pel", "lfe", "rfe", "lti", "rti", "lfo", "rfo", "lto", "rto", "hed", "trx",
+        ]
+        .iter()
+        .any(|p| n.starts_with(p))
+        && matches!(n.chars().last(), Some('o' | 'a' | 'l' | 'p'));
+    !(n.is_empty() || label.trim_start().starts_with('*') || model_suffix || bone_point)
+}
+
 impl MarkerSet {
     /// Builds a marker set from per-frame positions, one entry per label in `labels` order.
     ///
@@ -145,6 +316,30 @@ impl MarkerSet {
             let alias = normalised_label(alias);
             labels.iter().position(|l| *l == alias)
         })
+    }
+
+    /// The column of `landmark` on `side` (`'l'`/`'r'`; ignored for the sacrum), by
+    /// [`MARKER_NAMES`].
+    #[must_use]
+    pub fn landmark(&self, landmark: Landmark, side: char) -> Option<usize> {
+        let names = if landmark.sided() {
+            landmark.labels_for(side)
+        } else {
+            landmark.aliases().iter().map(|a| a.to_string()).collect()
+        };
+        let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+        self.find_marker(&refs)
+    }
+
+    /// The labels that look like raw skin markers (model outputs, bone points and unlabelled
+    /// `*n` points left out), as written in the file: what an error lists as found.
+    #[must_use]
+    pub fn marker_labels(&self) -> Vec<&str> {
+        self.labels
+            .iter()
+            .map(|l| base_label(l))
+            .filter(|l| looks_like_marker(l))
+            .collect()
     }
 
     /// Position of marker `label` in `frame`; `None` for a gap or an unknown label or frame.

@@ -4,12 +4,17 @@
 //!
 //! - 76 columns: `frame x y z × 25` (every joint taken as tracked);
 //! - 201 columns: `frame (state x y z qx qy qz qw) × 25`, state 0 = not tracked, 1 = inferred,
-//!   2 = tracked; orientations are ignored.
+//!   2 = tracked; orientations are ignored;
+//! - timed logs, `frame time_ms` first: 202 columns with `(state x y z qx qy qz qw) × 25`, 177
+//!   with 175 zeros when no body was tracked, and (a logger glitch) several `frame time_ms`
+//!   pairs before the 175 zeros, each an empty frame. Such loggers may run faster than the
+//!   Kinect and repeat its last skeleton; [`sdk_clip`] drops the repeats and places frames by
+//!   their time.
 
 use std::path::Path;
 
 use nalgebra::Point3;
-use trigait_skeleton::{Joint, JointSample, TrackingState};
+use trigait_skeleton::{Joint, JointSample, MotionClip, TrackingState};
 
 use crate::{Error, Result};
 
@@ -18,6 +23,8 @@ use crate::{Error, Result};
 pub struct SdkFrame {
     /// The recorder's frame number (first column).
     pub frame_number: u64,
+    /// The logger's time stamp (ms since its start), in timed logs.
+    pub time_ms: Option<f64>,
     /// Joints reported (not-tracked joints and all-zero positions are left out).
     pub joints: Vec<JointSample>,
 }
@@ -42,6 +49,9 @@ pub fn read_sdk_skeletons(path: impl AsRef<Path>) -> Result<Vec<SdkFrame>> {
     })
 }
 
+/// Zeros a timed log writes instead of 25 joints × 7 values when no body is tracked.
+const NO_BODY_ZEROS: usize = 175;
+
 /// Parses the text of a Kinect v2 SDK skeleton file; errors are `(1-based line, reason)`.
 pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (usize, String)> {
     let mut frames = Vec::new();
@@ -51,33 +61,53 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
         if cols.is_empty() {
             continue;
         }
-        let stride = match cols.len() {
-            76 => 3,
-            201 => 8,
-            n => {
-                return Err((
-                    line_no,
-                    format!(
-                        "{n} columns, expected 76 (frame + 25×xyz) or 201 (frame + 25×state xyz quaternion)"
-                    ),
-                ));
-            }
-        };
         let number = |c: &str| -> std::result::Result<f64, (usize, String)> {
             c.parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite())
                 .ok_or_else(|| (line_no, format!("{c:?} is not a finite number")))
         };
-        let frame_number = cols[0].parse::<u64>().map_err(|_| {
-            (
-                line_no,
-                format!("frame number {:?} is not an integer", cols[0]),
-            )
-        })?;
+        let frame_number_of = |c: &str| {
+            c.parse::<u64>()
+                .map_err(|_| (line_no, format!("frame number {c:?} is not an integer")))
+        };
+        // Timed logs: `frame time_ms` pairs, then either 25 joints or 175 zeros (no body).
+        let n = cols.len();
+        if n >= 177 && n != 201 && n != 202 {
+            let (pairs, zeros) = cols.split_at(n - NO_BODY_ZEROS);
+            let all_zero = zeros
+                .iter()
+                .all(|c| c.parse::<f64>().is_ok_and(|v| v == 0.0));
+            if pairs.len() % 2 == 0 && all_zero {
+                for pair in pairs.chunks(2) {
+                    frames.push(SdkFrame {
+                        frame_number: frame_number_of(pair[0])?,
+                        time_ms: Some(number(pair[1])?),
+                        joints: Vec::new(),
+                    });
+                }
+                continue;
+            }
+        }
+        let (stride, first_joint, time_ms) = match n {
+            76 => (3, 1, None),
+            201 => (8, 1, None),
+            202 => (8, 2, Some(number(cols[1])?)),
+            n => {
+                return Err((
+                    line_no,
+                    format!(
+                        "{n} columns, expected 76 (frame + 25×xyz), 201 (frame + 25×state xyz \
+                         quaternion), 202 (frame, time + 25×state xyz quaternion) or 177 (frame, \
+                         time + 175 zeros)"
+                    ),
+                ));
+            }
+        };
+        let frame_number = frame_number_of(cols[0])?;
         let mut joints = Vec::with_capacity(25);
         for (j, joint) in Joint::ALL.into_iter().enumerate() {
-            let at = 1 + j * stride;
+            let at = first_joint + j * stride;
             let (state, xyz) = if stride == 3 {
                 (TrackingState::Tracked, &cols[at..at + 3])
             } else {
@@ -107,6 +137,7 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
         }
         frames.push(SdkFrame {
             frame_number,
+            time_ms,
             joints,
         });
     }
@@ -114,6 +145,161 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
         return Err((1, "no frames".into()));
     }
     Ok(frames)
+}
+
+/// Kinect v2 SDK skeleton frames as a world-frame [`MotionClip`] at `rate_hz` (30 for a Kinect
+/// v2), with what was left out.
+///
+/// Camera space (x to the sensor's left, y up, z out of the lens) is turned into the Z-up world
+/// by (x, y, z) ↦ (z, x, y), a proper rotation: world X points away from the sensor, Z up. The
+/// floor is wherever the sensor saw it (not z = 0); gait analysis measures heights relative to
+/// each foot's own stance level, so that does not matter. Frames are placed by their frame
+/// number relative to the first, so a skipped number is a gap; a repeated number keeps its first
+/// line. Joints the tracker only *inferred* are dropped when `drop_inferred` is set (the
+/// occluded leg is then often far from the real one).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SdkClip {
+    /// The trajectories.
+    pub clip: MotionClip,
+    /// Lines whose frame number repeated an earlier one (skipped).
+    pub repeated_frames: usize,
+    /// Frame numbers missing between the first and the last (gaps).
+    pub missing_frames: usize,
+    /// Joint samples dropped as inferred.
+    pub inferred_dropped: usize,
+    /// Joint samples kept as inferred (when `drop_inferred` is off).
+    pub inferred_kept: usize,
+}
+
+/// Builds an [`SdkClip`] from parsed SDK frames.
+///
+/// # Errors
+/// [`Error::Clip`] for a bad rate or no frames.
+pub fn sdk_clip(
+    name: &str,
+    frames: &[SdkFrame],
+    rate_hz: f64,
+    drop_inferred: bool,
+) -> Result<SdkClip> {
+    if frames.iter().all(|f| f.time_ms.is_some()) && !frames.is_empty() {
+        return timed_clip(name, frames, rate_hz, drop_inferred);
+    }
+    let first = frames.iter().map(|f| f.frame_number).min().unwrap_or(0);
+    let last = frames.iter().map(|f| f.frame_number).max().unwrap_or(0);
+    // A corrupt frame number must not allocate the world: cap the span at an hour of frames.
+    let span = usize::try_from(last - first)
+        .unwrap_or(usize::MAX)
+        .min(3600 * 30)
+        + 1;
+    let joints = Joint::ALL.to_vec();
+    let mut rows: Vec<Option<Vec<Option<Point3<f64>>>>> = vec![None; span];
+    let (mut repeated, mut dropped, mut kept) = (0, 0, 0);
+    for frame in frames {
+        let Ok(index) = usize::try_from(frame.frame_number - first) else {
+            continue;
+        };
+        let Some(slot) = rows.get_mut(index) else {
+            continue;
+        };
+        if slot.is_some() {
+            repeated += 1;
+            continue;
+        }
+        *slot = Some(world_row(frame, drop_inferred, &mut dropped, &mut kept));
+    }
+    let missing = rows.iter().filter(|r| r.is_none()).count();
+    let rows = rows
+        .into_iter()
+        .map(|r| r.unwrap_or_else(|| vec![None; joints.len()]))
+        .collect();
+    Ok(SdkClip {
+        clip: MotionClip::new(name, rate_hz, joints, rows)?,
+        repeated_frames: repeated,
+        missing_frames: missing,
+        inferred_dropped: dropped,
+        inferred_kept: kept,
+    })
+}
+
+/// One frame's joints turned into the world frame, with the inferred samples dropped or kept
+/// (counted in `dropped`/`kept`).
+fn world_row(
+    frame: &SdkFrame,
+    drop_inferred: bool,
+    dropped: &mut usize,
+    kept: &mut usize,
+) -> Vec<Option<Point3<f64>>> {
+    let mut row = vec![None; Joint::ALL.len()];
+    for sample in &frame.joints {
+        if sample.state == TrackingState::Inferred {
+            if drop_inferred {
+                *dropped += 1;
+                continue;
+            }
+            *kept += 1;
+        }
+        let c = sample.position_in_kinect;
+        row[sample.joint as usize] = Some(Point3::new(c.z, c.x, c.y));
+    }
+    row
+}
+
+/// [`sdk_clip`] for timed logs: a line repeating the previous line's skeleton exactly is the
+/// logger polling faster than the Kinect (counted as repeated, dropped), a line without a body
+/// is a gap, and each remaining skeleton goes to the `rate_hz` slot nearest its time stamp, or
+/// the next when that is taken (with neither free it is counted as repeated).
+fn timed_clip(
+    name: &str,
+    frames: &[SdkFrame],
+    rate_hz: f64,
+    drop_inferred: bool,
+) -> Result<SdkClip> {
+    let times: Vec<f64> = frames.iter().filter_map(|f| f.time_ms).collect();
+    let t0 = times.iter().copied().fold(f64::INFINITY, f64::min);
+    let t1 = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let slot_of = |t: f64| ((t - t0) / 1000.0 * rate_hz).round();
+    // A corrupt time stamp must not allocate the world: cap the span at an hour of frames.
+    let span = (slot_of(t1).max(0.0).min(3600.0 * rate_hz.max(1.0)) as usize) + 1;
+    let joints = Joint::ALL.to_vec();
+    let mut rows: Vec<Option<Vec<Option<Point3<f64>>>>> = vec![None; span];
+    let (mut repeated, mut dropped, mut kept) = (0, 0, 0);
+    let mut previous: Option<&Vec<JointSample>> = None;
+    for frame in frames {
+        if frame.joints.is_empty() {
+            previous = None;
+            continue;
+        }
+        if previous.is_some_and(|p| *p == frame.joints) {
+            repeated += 1;
+            continue;
+        }
+        previous = Some(&frame.joints);
+        let slot = slot_of(frame.time_ms.unwrap_or(t0));
+        if slot < 0.0 {
+            continue;
+        }
+        // The polling jitters by up to a Kinect period: a skeleton whose slot the previous one
+        // took belongs to the next.
+        let slot = slot as usize;
+        let Some(free) = (slot..=slot + 1).find(|&k| rows.get(k).is_some_and(Option::is_none))
+        else {
+            repeated += 1;
+            continue;
+        };
+        rows[free] = Some(world_row(frame, drop_inferred, &mut dropped, &mut kept));
+    }
+    let missing = rows.iter().filter(|r| r.is_none()).count();
+    let rows = rows
+        .into_iter()
+        .map(|r| r.unwrap_or_else(|| vec![None; joints.len()]))
+        .collect();
+    Ok(SdkClip {
+        clip: MotionClip::new(name, rate_hz, joints, rows)?,
+        repeated_frames: repeated,
+        missing_frames: missing,
+        inferred_dropped: dropped,
+        inferred_kept: kept,
+    })
 }
 
 #[cfg(test)]
@@ -142,6 +328,29 @@ mod tests {
             .filter(|s| s.state == TrackingState::Inferred)
             .count();
         assert!(inferred > 1000, "{inferred}");
+    }
+
+    /// The timed CHU log: 1253 lines, the two malformed ones split into empty frames, the
+    /// logger's repeats dropped, and the tracked skeletons on a 30 Hz grid by their time.
+    #[test]
+    fn timed_log() {
+        let path = trigait_test_data::shared_data_dir()
+            .join("kinect-v2-vicon-chu-walk/JointsInfo_before_CHU_test.txt");
+        let frames = read_sdk_skeletons(&path).unwrap();
+        // 1251 well-formed lines, plus 3 and 9 frames from the two glued lines.
+        assert_eq!(frames.len(), 1251 + 3 + 9);
+        let bodies = frames.iter().filter(|f| !f.joints.is_empty()).count();
+        assert_eq!(bodies, 817);
+        let clip = sdk_clip("chu", &frames, 30.0, false).unwrap();
+        // SOURCE.txt: 436 of the 817 tracked lines repeat the previous one exactly.
+        assert!(clip.repeated_frames >= 436, "{}", clip.repeated_frames);
+        // About 19.8 s at 30 Hz.
+        assert!((590..=600).contains(&clip.clip.frame_count()));
+        let tracked = (0..clip.clip.frame_count())
+            .filter(|&f| clip.clip.position(f, Joint::SpineBase).is_some())
+            .count();
+        // 381 distinct skeletons; nearly all find a slot.
+        assert!((370..=381).contains(&tracked), "{tracked}");
     }
 
     /// A short line and a non-number are errors naming the line, never panics.

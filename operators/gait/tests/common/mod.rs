@@ -36,6 +36,8 @@ pub struct Walk {
     pub with_feet: bool,
     /// Amplitude of deterministic pseudo-random noise added to every coordinate (m).
     pub noise_m: f64,
+    /// Peak height of the swing foot above its stance height (m); running lifts it higher.
+    pub lift_m: f64,
 }
 
 impl Default for Walk {
@@ -53,6 +55,7 @@ impl Default for Walk {
             path: vec![Piece::Straight(100.0)],
             with_feet: true,
             noise_m: 0.0,
+            lift_m: 0.1,
         }
     }
 }
@@ -167,7 +170,7 @@ impl Walk {
         } else {
             dir_here
         };
-        (pos, 0.1 * (std::f64::consts::PI * phi).sin(), dir)
+        (pos, self.lift_m * (std::f64::consts::PI * phi).sin(), dir)
     }
 
     fn noise(&self, seed: usize) -> f64 {

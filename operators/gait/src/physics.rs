@@ -1,0 +1,198 @@
+//! What the feet can physically be doing: on the floor or in the air.
+//!
+//! The event detectors look at horizontal motion (the coordinate method does not even need a
+//! vertical axis), so by themselves they will place a "heel strike" wherever a foot stops
+//! moving forward relative to the pelvis — also at the top of a hop. These checks add the
+//! vertical: each foot's *stance level* is the low quantile of its own height over a sliding
+//! window (so a floor that slopes, a treadmill deck, a skeleton whose floor is not at z = 0, or
+//! an ankle centre 8 cm above the sole all give the right level), and a foot is *airborne* when
+//! it is clearly above that level.
+//!
+//! * An event is kept only if its landmark is within [`PhysicsParams::event_gate_m`] of its stance
+//!   level, and not inside a flight phase.
+//! * A **flight phase** is a stretch where *both* feet (lowest of heel and toe) are more than
+//!   [`PhysicsParams::flight_gate_m`] above their levels for at least
+//!   [`PhysicsParams::min_flight_secs`]: running, hopping, jumping. Walking never has one.
+
+use serde::{Deserialize, Serialize};
+
+use crate::signal::Landmarks;
+use crate::{Error, Foot, Result};
+
+/// Tuning of the airborne checks.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PhysicsParams {
+    /// A heel strike or toe off is rejected when its landmark is higher than this above its
+    /// stance level (m). Default 0.10 m: at a real contact the heel or toe is within a few
+    /// centimetres of it (the coordinate method fires up to ~2 frames early or late), a hop's
+    /// feet are 0.2–0.4 m up.
+    pub event_gate_m: f64,
+    /// Both feet above their levels by more than this (m) is flight. Default 0.05 m, above the
+    /// 1–2 cm of marker or Kinect noise and the few cm a stance heel rises before toe off (the
+    /// lower of heel and toe counts, and the toe stays down).
+    pub flight_gate_m: f64,
+    /// Shortest flight (s). Default 0.04 s.
+    pub min_flight_secs: f64,
+    /// Half-width of the window the stance level is taken over (s). Default 1.0 s: at least a
+    /// stride, so it always holds a stance, and short enough to follow a slope.
+    pub level_window_secs: f64,
+}
+
+impl Default for PhysicsParams {
+    fn default() -> Self {
+        Self {
+            event_gate_m: 0.10,
+            flight_gate_m: 0.05,
+            min_flight_secs: 0.04,
+            level_window_secs: 1.0,
+        }
+    }
+}
+
+impl PhysicsParams {
+    pub(crate) fn validate(&self) -> Result<()> {
+        for (name, value) in [
+            ("event_gate_m", self.event_gate_m),
+            ("flight_gate_m", self.flight_gate_m),
+            ("min_flight_secs", self.min_flight_secs),
+            ("level_window_secs", self.level_window_secs),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(Error::BadParameter {
+                    name,
+                    value,
+                    expected: "a positive finite number",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A stretch with both feet off the floor.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FlightPhase {
+    /// First airborne frame's time (s).
+    pub start_secs: f64,
+    /// Last airborne frame's time (s).
+    pub end_secs: f64,
+    /// First airborne frame.
+    pub first_frame: usize,
+    /// Last airborne frame.
+    pub last_frame: usize,
+}
+
+/// Heights of every landmark above its own stance level.
+#[derive(Debug, Clone)]
+pub(crate) struct Heights {
+    /// Heel heights above the heel's level, left then right.
+    pub heel: [Vec<Option<f64>>; 2],
+    /// Toe heights above the toe's level.
+    pub toe: [Vec<Option<f64>>; 2],
+    /// Flight phases.
+    pub flights: Vec<FlightPhase>,
+}
+
+/// Fraction of the window below the stance level: stance is ≥ 35 % of a running stride and
+/// ≈ 60 % of a walking one, so the 10th percentile lies inside stance.
+const LEVEL_QUANTILE: f64 = 0.10;
+
+fn relative_heights(track: &[Option<nalgebra::Point3<f64>>], half: usize) -> Vec<Option<f64>> {
+    let z: Vec<Option<f64>> = track.iter().map(|p| p.map(|p| p.z)).collect();
+    let n = z.len();
+    let mut window = Vec::with_capacity(2 * half + 1);
+    (0..n)
+        .map(|i| {
+            let zi = z[i]?;
+            window.clear();
+            window.extend(
+                z[i.saturating_sub(half)..=(i + half).min(n - 1)]
+                    .iter()
+                    .flatten(),
+            );
+            if window.len() < half.max(3) {
+                return None;
+            }
+            window.sort_by(f64::total_cmp);
+            let k = ((window.len() - 1) as f64 * LEVEL_QUANTILE).round() as usize;
+            Some(zi - window[k])
+        })
+        .collect()
+}
+
+pub(crate) fn heights(landmarks: &Landmarks, params: &PhysicsParams) -> Heights {
+    let half = ((params.level_window_secs * landmarks.rate_hz).round() as usize).max(3);
+    let heel = [0, 1].map(|s| relative_heights(&landmarks.heel[s], half));
+    let toe = [0, 1].map(|s| relative_heights(&landmarks.toe[s], half));
+    let n = landmarks.len();
+    let foot_up = |s: usize, f: usize| -> Option<bool> {
+        let low = match (heel[s][f], toe[s][f]) {
+            (Some(h), Some(t)) => h.min(t),
+            (Some(h), None) => h,
+            (None, Some(t)) => t,
+            (None, None) => return None,
+        };
+        Some(low > params.flight_gate_m)
+    };
+    let airborne: Vec<bool> = (0..n)
+        .map(|f| foot_up(0, f) == Some(true) && foot_up(1, f) == Some(true))
+        .collect();
+    let min_frames = ((params.min_flight_secs * landmarks.rate_hz).ceil() as usize).max(2);
+    let mut flights = Vec::new();
+    let mut f = 0;
+    while f < n {
+        if !airborne[f] {
+            f += 1;
+            continue;
+        }
+        let start = f;
+        while f < n && airborne[f] {
+            f += 1;
+        }
+        if f - start >= min_frames {
+            flights.push(FlightPhase {
+                start_secs: start as f64 / landmarks.rate_hz,
+                end_secs: (f - 1) as f64 / landmarks.rate_hz,
+                first_frame: start,
+                last_frame: f - 1,
+            });
+        }
+    }
+    Heights { heel, toe, flights }
+}
+
+impl Heights {
+    /// Whether an event of `foot` at fractional `frame` on the heel (`heel` true) or toe track
+    /// is physically possible: its landmark near its stance level and not inside a flight
+    /// (an event within one frame of a flight's end is its take-off or landing).
+    pub(crate) fn allows(&self, foot: Foot, heel: bool, frame: f64, gate: f64) -> bool {
+        let track = if heel {
+            &self.heel[foot.index()]
+        } else {
+            &self.toe[foot.index()]
+        };
+        let nearest = frame.round().max(0.0) as usize;
+        let high = track
+            .get(nearest)
+            .copied()
+            .flatten()
+            .is_some_and(|h| h > gate);
+        let in_flight = self
+            .flights
+            .iter()
+            .any(|p| frame > p.first_frame as f64 + 1.0 && frame < p.last_frame as f64 - 1.0);
+        !high && !in_flight
+    }
+
+    /// Flight frames inside `first..=last`.
+    pub(crate) fn flight_frames(&self, first: usize, last: usize) -> usize {
+        self.flights
+            .iter()
+            .map(|p| {
+                let a = p.first_frame.max(first);
+                let b = p.last_frame.min(last);
+                if b >= a { b - a + 1 } else { 0 }
+            })
+            .sum()
+    }
+}
