@@ -5,7 +5,9 @@
 use eyre::{Context, bail, eyre};
 use trigait_rig::Rig;
 use trigait_sim::clock::SimClock;
-use trigait_sim::stream::{ReplayedSensor, SimulatedSensor, SimulatedSensorParams};
+use trigait_sim::stream::{
+    RecordedSensor, ReplayedSensor, SimulatedSensor, SimulatedSensorParams, recording_origin,
+};
 use trigait_skeleton::{Joint, MotionClip};
 
 pub use trigait_sim::stream::{Captured, SensorClock};
@@ -19,6 +21,8 @@ pub enum Source {
     Sim(Box<SimulatedSensor>),
     /// A recorded SDK skeleton file.
     Replay(ReplayedSensor),
+    /// One sensor of a trial recording.
+    Recording(RecordedSensor),
 }
 
 /// Host time, ns since the UNIX epoch (the server clock of a one-host graph).
@@ -85,6 +89,7 @@ impl Source {
                     now,
                 )))
             }
+            Backend::Recording { file, fast } => recording_source(config, file, *fast, now),
             Backend::Freenect2 => {
                 if cfg!(feature = "freenect2") {
                     bail!(
@@ -107,6 +112,7 @@ impl Source {
         match self {
             Source::Sim(s) => Some(s.next_due()),
             Source::Replay(r) => r.next_due(),
+            Source::Recording(r) => r.next_due(),
         }
     }
 
@@ -115,8 +121,39 @@ impl Source {
         match self {
             Source::Sim(s) => Some(s.capture(clock)),
             Source::Replay(r) => r.capture(now, clock),
+            Source::Recording(r) => r.capture(clock),
         }
     }
+}
+
+/// `config.sensor_id`'s frames of the recording `file`; a recording without them is an error
+/// naming the sensors it has.
+fn recording_source(
+    config: &Config,
+    file: &std::path::Path,
+    fast: bool,
+    now: i64,
+) -> eyre::Result<Source> {
+    let frames = trigait_recording::read_frames(file)
+        .with_context(|| format!("kinect-source: {}={}", config::RECORDING, file.display()))?;
+    let sensor = RecordedSensor::new(
+        &frames,
+        &config.sensor_id,
+        recording_origin(&frames),
+        fast,
+        now,
+    );
+    if sensor.is_empty() {
+        bail!(
+            "kinect-source: {}={}: no frames of {}={:?} (the recording has {})",
+            config::RECORDING,
+            file.display(),
+            config::SENSOR_ID,
+            config.sensor_id,
+            trigait_recording::sensor_ids(&frames).join(", ")
+        );
+    }
+    Ok(Source::Recording(sensor))
 }
 
 /// The motion as an endless lap: out and back along the walkway.

@@ -4,7 +4,7 @@
 //! |---|---|---|---|
 //! | `SENSOR_ID` | string | required | the sensor's id in the rig file (`k1`) |
 //! | `RIG` | `thesis`, `ring-N` or a YAML path | `thesis` | sensor poses (the simulator needs them) |
-//! | `BACKEND` | `sim`, `replay`, `freenect2` | `sim` | where frames come from |
+//! | `BACKEND` | `sim`, `replay`, `recording`, `freenect2` | `sim` | where frames come from |
 //! | `MOTION` | `walker` or a C3D/TRC/CSV path | `walker` | what the simulated subject does (played there and back, endlessly) |
 //! | `WALK_SECS` | seconds | `2.5` | one-way duration of the embedded walker |
 //! | `JOINTS` | `legs` or `all` | `legs` | joints reported |
@@ -15,7 +15,8 @@
 //! | `CLOCK_DRIFT_PPM` | ppm | `0` | simulated clock drift |
 //! | `CLOCK_JITTER_MICROS` | µs | `20` | σ of every clock reading |
 //! | `REPLAY_FILE` | path | required for `replay` | Kinect v2 SDK skeleton text file (either format) |
-//! | `REPLAY_SPEED` | `realtime` or `fast` | `realtime` | play at 30 Hz or as fast as possible |
+//! | `REPLAY_SPEED` | `realtime` or `fast` | `realtime` | play at 30 Hz (`recording`: on the recorded timeline) or as fast as possible |
+//! | `RECORDING` | path | required for `recording` | a trial recording's `frames.csv` (the recorder's); this source plays `SENSOR_ID`'s frames: in real time re-stamped by this node's clock, as fast as possible with the recorded stamps (`sync` needs `TIMESTAMPS: recorded`) |
 //! | `REPLAY_LOOP` | bool | `true` | start over at the end of the file |
 //! | `GROUND_TRUTH` | bool | `true` for the rig's first sensor | send the simulated ground truth on `ground_truth` (one source per graph, so each instant is sent once) |
 //! | `STOP_AFTER_FRAMES` | integer | none | stop after this many frames (tests: a source dying mid-run) |
@@ -55,6 +56,8 @@ pub const CLOCK_JITTER_MICROS: &str = "CLOCK_JITTER_MICROS";
 pub const REPLAY_FILE: &str = "REPLAY_FILE";
 /// Env var: replay speed.
 pub const REPLAY_SPEED: &str = "REPLAY_SPEED";
+/// Env var: trial recording.
+pub const RECORDING: &str = "RECORDING";
 /// Env var: replay loop.
 pub const REPLAY_LOOP: &str = "REPLAY_LOOP";
 /// Env var: stop after N frames.
@@ -82,6 +85,13 @@ pub enum Backend {
         fast: bool,
         /// Start over at the end.
         looped: bool,
+    },
+    /// One sensor of a trial recording (`trigait-recording`).
+    Recording {
+        /// Its `frames.csv`.
+        file: PathBuf,
+        /// As fast as possible instead of on the recorded timeline.
+        fast: bool,
     },
     /// A real Kinect v2 through libfreenect2.
     Freenect2,
@@ -121,6 +131,17 @@ pub struct Config {
 }
 
 const NODE: &str = "kinect-source";
+
+/// `REPLAY_SPEED`: whether to play as fast as possible.
+fn replay_fast(lookup: &impl Fn(&str) -> Option<String>) -> eyre::Result<bool> {
+    match lookup(REPLAY_SPEED).as_deref().map(str::trim) {
+        None | Some("realtime") => Ok(false),
+        Some("fast") => Ok(true),
+        Some(other) => {
+            bail!("{NODE}: {REPLAY_SPEED}={other:?} is invalid: expected `realtime` or `fast`")
+        }
+    }
+}
 
 impl Config {
     /// From the process environment.
@@ -162,9 +183,15 @@ impl Config {
                 },
                 looped: env_flag(NODE, &lookup, REPLAY_LOOP, true)?,
             },
+            "recording" => Backend::Recording {
+                file: lookup(RECORDING).map(PathBuf::from).ok_or_else(|| {
+                    eyre!("{NODE}: {RECORDING} is required with {BACKEND}=recording")
+                })?,
+                fast: replay_fast(&lookup)?,
+            },
             "freenect2" => Backend::Freenect2,
             other => bail!(
-                "{NODE}: {BACKEND}={other:?} is invalid: expected `sim`, `replay` or `freenect2`"
+                "{NODE}: {BACKEND}={other:?} is invalid: expected `sim`, `replay`, `recording` or `freenect2`"
             ),
         };
         let all_joints = match lookup(JOINTS).as_deref().map(str::trim) {

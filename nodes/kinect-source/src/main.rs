@@ -161,6 +161,16 @@ fn send_capture(
     if let Some(t) = captured.true_stamp_nanos {
         params.insert(ports::TRUE_STAMP_NANOS.to_owned(), Parameter::Integer(t));
     }
+    if let Some(r) = captured.recorded {
+        params.insert(
+            ports::RECORDED_SERVER_STAMP_NANOS.to_owned(),
+            Parameter::Integer(r.server_stamp_nanos),
+        );
+        params.insert(
+            ports::RECORDED_UNCERTAINTY_NANOS.to_owned(),
+            Parameter::Integer(r.uncertainty_nanos),
+        );
+    }
     let array = SkeletonFrameMessage::from(captured.frame)
         .encode()
         .context("encoding a skeleton frame")?;

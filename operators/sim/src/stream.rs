@@ -6,6 +6,9 @@
 //!   walkway) at the sensor's frame rate and phase.
 //! - [`ReplayedSensor`]: a recorded Kinect v2 SDK skeleton file played back at the frame rate
 //!   or as fast as possible, optionally looped.
+//! - [`RecordedSensor`]: one sensor's frames of a trial recording (`trigait-recording`) played
+//!   back on the recorded timeline, in real time or as fast as possible, each frame carrying
+//!   where the recording's `sync` placed it on the server clock ([`RecordedPlacement`]).
 //! - [`SensorClock`]: the host clock (the server clock of a one-host graph) seen through a
 //!   simulated offset, drift and jitter ([`crate::clock::SimClock`]), which stamps both.
 
@@ -13,7 +16,7 @@ use rand_chacha::ChaCha8Rng;
 use trigait_kinect::NoiseModel;
 use trigait_motion::SdkFrame;
 use trigait_rig::Rig;
-use trigait_schema::GroundTruth;
+use trigait_schema::{FrameTiming, GroundTruth};
 use trigait_skeleton::{Joint, MotionClip, SkeletonFrame};
 
 use crate::Simulator;
@@ -61,6 +64,18 @@ pub struct Captured {
     /// Ground truth since the previous capture, one entry per instant (the truth-sending
     /// simulated sensor only).
     pub truth: Vec<GroundTruth>,
+    /// Where the recording's `sync` placed the frame on the server clock (replayed recordings
+    /// only, and only frames that were synchronised then).
+    pub recorded: Option<RecordedPlacement>,
+}
+
+/// A recorded frame's place on the recording's server clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RecordedPlacement {
+    /// Server-clock capture stamp, ns.
+    pub server_stamp_nanos: i64,
+    /// Its uncertainty, ns.
+    pub uncertainty_nanos: i64,
 }
 
 /// The sensor's clock: the host clock seen through a simulated offset, drift and jitter, drift
@@ -230,6 +245,7 @@ impl SimulatedSensor {
             frame,
             true_stamp_nanos: Some(t),
             truth,
+            recorded: None,
         }
     }
 }
@@ -300,8 +316,132 @@ impl ReplayedSensor {
             frame,
             true_stamp_nanos: None,
             truth: Vec::new(),
+            recorded: None,
         })
     }
+}
+
+/// One sensor of a trial recording played back. Frames keep their recorded `seq`, joints and
+/// true stamp, and carry their recorded server placement ([`Captured::recorded`]). The
+/// timeline is the recording's server clock: frame `i` is due at host time
+/// `start + (tᵢ − origin)`, `tᵢ` its server stamp (a frame recorded before its sensor was
+/// synchronised is placed with that sensor's first recorded mapping), `origin` shared by every
+/// sensor of the recording so that their sources stay in step.
+///
+/// - real time: each frame is re-stamped by the node's own sensor clock at its due instant,
+///   so `sync` synchronises it afresh, as a live sensor's (the recorded clock jitter is not
+///   reproduced; the recorded placement still rides along).
+/// - as fast as possible: every frame is due at once and keeps its recorded sensor-local
+///   stamp; only a `sync` that places frames on their recorded server stamps can align them.
+#[derive(Debug, Clone)]
+pub struct RecordedSensor {
+    frames: Vec<FrameTiming>,
+    due_nanos: Vec<i64>,
+    at: usize,
+    fast: bool,
+    start_nanos: i64,
+}
+
+impl RecordedSensor {
+    /// The frames of `sensor_id` in `recording` (in recorded order), the timeline from
+    /// `origin_nanos` on the recording's server clock ([`recording_origin`]) starting at host
+    /// time `start_nanos`. Fewer than one frame is allowed: the source then ends at once.
+    #[must_use]
+    pub fn new(
+        recording: &[FrameTiming],
+        sensor_id: &str,
+        origin_nanos: i64,
+        fast: bool,
+        start_nanos: i64,
+    ) -> Self {
+        let frames: Vec<FrameTiming> = recording
+            .iter()
+            .filter(|f| f.sensor_id == sensor_id)
+            .cloned()
+            .collect();
+        // Server minus local of the sensor's first synchronised frame, for frames before it.
+        let first_mapping = frames
+            .iter()
+            .find_map(|f| Some(f.server_stamp_nanos? - f.local_stamp_nanos));
+        let mut due_nanos = Vec::with_capacity(frames.len());
+        let mut last = start_nanos;
+        for f in &frames {
+            let t = f.server_stamp_nanos.unwrap_or_else(|| {
+                f.local_stamp_nanos
+                    .saturating_add(first_mapping.unwrap_or(origin_nanos - f.local_stamp_nanos))
+            });
+            let due = start_nanos.saturating_add(t.saturating_sub(origin_nanos).max(0));
+            last = last.max(due);
+            due_nanos.push(last);
+        }
+        Self {
+            frames,
+            due_nanos,
+            at: 0,
+            fast,
+            start_nanos,
+        }
+    }
+
+    /// Frames of this sensor in the recording.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// Whether the recording has no frame of this sensor.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// Host time of the next frame (as fast as possible: the start, so always due); `None`
+    /// when played out.
+    #[must_use]
+    pub fn next_due(&self) -> Option<i64> {
+        let due = *self.due_nanos.get(self.at)?;
+        Some(if self.fast { self.start_nanos } else { due })
+    }
+
+    /// The next recorded frame; in real time stamped by `clock` at its due instant.
+    pub fn capture(&mut self, clock: &mut SensorClock) -> Option<Captured> {
+        let recorded = self.frames.get(self.at)?;
+        let due = self.due_nanos.get(self.at).copied().unwrap_or_default();
+        self.at += 1;
+        let frame = SkeletonFrame {
+            sensor_id: recorded.sensor_id.clone(),
+            seq: recorded.seq,
+            local_stamp_nanos: if self.fast {
+                recorded.local_stamp_nanos
+            } else {
+                clock.local(due)
+            },
+            joints: recorded.joints.clone(),
+        };
+        Some(Captured {
+            frame,
+            true_stamp_nanos: recorded.true_stamp_nanos,
+            truth: Vec::new(),
+            recorded: recorded
+                .server_stamp_nanos
+                .map(|server_stamp_nanos| RecordedPlacement {
+                    server_stamp_nanos,
+                    uncertainty_nanos: recorded.uncertainty_nanos.unwrap_or(0),
+                }),
+        })
+    }
+}
+
+/// The origin of a recording's timeline: its earliest server stamp (its earliest local stamp
+/// when no frame was synchronised), shared by the [`RecordedSensor`]s of every sensor.
+#[must_use]
+pub fn recording_origin(recording: &[FrameTiming]) -> i64 {
+    recording
+        .iter()
+        .filter_map(|f| f.server_stamp_nanos)
+        .min()
+        .or_else(|| recording.iter().map(|f| f.local_stamp_nanos).min())
+        .unwrap_or(0)
 }
 
 /// The first instant `phase + k·period` at or after `now`.
