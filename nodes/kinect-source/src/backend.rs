@@ -6,7 +6,7 @@ use eyre::{Context, bail, eyre};
 use trigait_rig::Rig;
 use trigait_sim::clock::SimClock;
 use trigait_sim::stream::{
-    RecordedSensor, ReplayedSensor, SimulatedSensor, SimulatedSensorParams, recording_origin,
+    Pace, RecordedSensor, ReplayedSensor, SimulatedSensor, SimulatedSensorParams, recording_origin,
 };
 use trigait_skeleton::{Joint, MotionClip};
 
@@ -89,7 +89,7 @@ impl Source {
                     now,
                 )))
             }
-            Backend::Recording { file, fast } => recording_source(config, file, *fast, now),
+            Backend::Recording { file, pace } => recording_source(config, file, *pace, now),
             Backend::Freenect2 => {
                 if cfg!(feature = "freenect2") {
                     bail!(
@@ -116,6 +116,14 @@ impl Source {
         }
     }
 
+    /// The frames' receiver has shown it listens (an NTP request came): a recording played
+    /// as fast as possible starts then.
+    pub fn receiver_ready(&mut self, now: i64) {
+        if let Source::Recording(r) = self {
+            r.receiver_ready(now);
+        }
+    }
+
     /// Captures the frame due now; `clock` stamps it.
     pub fn capture(&mut self, now: i64, clock: &mut SensorClock) -> Option<Captured> {
         match self {
@@ -131,7 +139,7 @@ impl Source {
 fn recording_source(
     config: &Config,
     file: &std::path::Path,
-    fast: bool,
+    pace: Pace,
     now: i64,
 ) -> eyre::Result<Source> {
     let frames = trigait_recording::read_frames(file)
@@ -140,7 +148,7 @@ fn recording_source(
         &frames,
         &config.sensor_id,
         recording_origin(&frames),
-        fast,
+        pace,
         now,
     );
     if sensor.is_empty() {

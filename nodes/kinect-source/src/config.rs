@@ -15,8 +15,8 @@
 //! | `CLOCK_DRIFT_PPM` | ppm | `0` | simulated clock drift |
 //! | `CLOCK_JITTER_MICROS` | µs | `20` | σ of every clock reading |
 //! | `REPLAY_FILE` | path | required for `replay` | Kinect v2 SDK skeleton text file (either format) |
-//! | `REPLAY_SPEED` | `realtime` or `fast` | `realtime` | play at 30 Hz (`recording`: on the recorded timeline) or as fast as possible |
-//! | `RECORDING` | path | required for `recording` | a trial recording's `frames.csv` (the recorder's); this source plays `SENSOR_ID`'s frames: in real time re-stamped by this node's clock, as fast as possible with the recorded stamps (`sync` needs `TIMESTAMPS: recorded`) |
+//! | `REPLAY_SPEED` | `realtime` or `fast` (`recording`: also a speed-up factor ≥ 1) | `realtime` | play at 30 Hz (`recording`: on the recorded timeline) or as fast as possible (`recording`: 20× real time, the bounded speed dora delivers without loss) |
+//! | `RECORDING` | path | required for `recording` | a trial recording's `frames.csv` (the recorder's); this source plays `SENSOR_ID`'s frames: in real time re-stamped by this node's clock, faster with the recorded stamps (then `sync` needs `TIMESTAMPS: recorded`) |
 //! | `REPLAY_LOOP` | bool | `true` | start over at the end of the file |
 //! | `GROUND_TRUTH` | bool | `true` for the rig's first sensor | send the simulated ground truth on `ground_truth` (one source per graph, so each instant is sent once) |
 //! | `STOP_AFTER_FRAMES` | integer | none | stop after this many frames (tests: a source dying mid-run) |
@@ -90,8 +90,8 @@ pub enum Backend {
     Recording {
         /// Its `frames.csv`.
         file: PathBuf,
-        /// As fast as possible instead of on the recorded timeline.
-        fast: bool,
+        /// How fast.
+        pace: trigait_sim::stream::Pace,
     },
     /// A real Kinect v2 through libfreenect2.
     Freenect2,
@@ -132,14 +132,20 @@ pub struct Config {
 
 const NODE: &str = "kinect-source";
 
-/// `REPLAY_SPEED`: whether to play as fast as possible.
-fn replay_fast(lookup: &impl Fn(&str) -> Option<String>) -> eyre::Result<bool> {
+/// `REPLAY_SPEED` of a recording: `realtime`, `fast` or a speed-up factor.
+fn replay_pace(
+    lookup: &impl Fn(&str) -> Option<String>,
+) -> eyre::Result<trigait_sim::stream::Pace> {
+    use trigait_sim::stream::Pace;
     match lookup(REPLAY_SPEED).as_deref().map(str::trim) {
-        None | Some("realtime") => Ok(false),
-        Some("fast") => Ok(true),
-        Some(other) => {
-            bail!("{NODE}: {REPLAY_SPEED}={other:?} is invalid: expected `realtime` or `fast`")
-        }
+        None | Some("realtime") => Ok(Pace::RealTime),
+        Some("fast") => Ok(Pace::FAST),
+        Some(other) => match other.parse::<f64>() {
+            Ok(f) if f.is_finite() && (1.0..=1000.0).contains(&f) => Ok(Pace::Faster(f)),
+            _ => bail!(
+                "{NODE}: {REPLAY_SPEED}={other:?} is invalid: expected `realtime`, `fast` or a speed-up factor within 1–1000"
+            ),
+        },
     }
 }
 
@@ -187,7 +193,7 @@ impl Config {
                 file: lookup(RECORDING).map(PathBuf::from).ok_or_else(|| {
                     eyre!("{NODE}: {RECORDING} is required with {BACKEND}=recording")
                 })?,
-                fast: replay_fast(&lookup)?,
+                pace: replay_pace(&lookup)?,
             },
             "freenect2" => Backend::Freenect2,
             other => bail!(

@@ -124,6 +124,7 @@ pub fn run(
                     if request.sensor_id != config.sensor_id {
                         continue;
                     }
+                    source.receiver_ready(now_nanos());
                     let reply = request.answered(t2, clock.local(now_nanos()));
                     let array = reply.encode().context("encoding the NTP reply")?;
                     node.send_output(ntp_out.clone(), metadata.parameters, array)

@@ -8,7 +8,7 @@
 //! | `SLOT_MILLIS` | ms | `15` | slot length under `slots` (cycle = (n+1) slots) |
 //! | `LATENCY_DEADLINE_MILLIS` | ms | `100` | a set goes out incomplete after this (must exceed transport delay) |
 //! | `NTP_INTERVAL_MILLIS` | ms | `100` | one NTP exchange per sensor this often |
-//! | `TIMESTAMPS` | `ntp` or `recorded` | `ntp` | `recorded`: replaying a trial recording (`kinect-source` `BACKEND: recording`), place each frame on the server stamp the recording's `sync` gave it (`trigait.recorded_server_stamp_nanos`) instead of mapping it with NTP; time then moves with the frames only (no deadline on the host clock, no NTP), so the sets are built from the same frames at the same instants as in the recorded run, at any replay speed; a frame recorded unsynchronised is dropped as it was then |
+//! | `TIMESTAMPS` | `ntp` or `recorded` | `ntp` | `recorded`: replaying a trial recording (`kinect-source` `BACKEND: recording`), place each frame on the server stamp the recording's `sync` gave it (`trigait.recorded_server_stamp_nanos`) instead of mapping it with NTP; time then moves with the frames only (no deadline on the host clock; NTP requests still go out, as the sign that sync listens), so the sets are built from the same frames at the same instants as in the recorded run, at any replay speed; a frame recorded unsynchronised is dropped as it was then |
 //! | `SENSORS` | comma list | from the `frame_<id>` inputs | sensor ids, in slot order |
 //!
 //! Inputs: `frame_<id>` and `ntp_<id>` per source, `tick` (a `dora/timer/millis/N` timer, ≤ 20 ms).

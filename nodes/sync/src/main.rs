@@ -289,10 +289,8 @@ impl State {
     /// Sends the NTP requests due, the sets whose deadline passed and the frame timings
     /// gathered since the last tick.
     fn on_tick(&mut self, node: &mut DoraNode, now: i64) -> eyre::Result<()> {
-        if self.recorded_time {
-            // Recorded time moves with the frames only; no clock to synchronise.
-            return self.send_timings(node);
-        }
+        // Under recorded time the NTP requests only tell the replaying sources that sync
+        // listens (their replies are not used).
         for i in self.ntp_schedule.due(now) {
             let Some(sensor) = self.sensors.get(i) else {
                 continue;
@@ -308,15 +306,17 @@ impl State {
                 .with_context(|| format!("sync: sending {port}"))?;
             self.counters.ntp_requests += 1;
         }
-        let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
-        emit(
-            node,
-            &self.out,
-            sets,
-            now,
-            self.rig.as_ref(),
-            &mut self.counters,
-        )?;
+        if !self.recorded_time {
+            let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
+            emit(
+                node,
+                &self.out,
+                sets,
+                now,
+                self.rig.as_ref(),
+                &mut self.counters,
+            )?;
+        }
         self.send_timings(node)
     }
 

@@ -321,38 +321,70 @@ impl ReplayedSensor {
     }
 }
 
+/// How fast a recording plays.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pace {
+    /// On the recorded timeline, each frame re-stamped by the node's own sensor clock at its
+    /// due instant, so `sync` synchronises it afresh, as a live sensor's (the recorded clock
+    /// jitter is not reproduced; the recorded placement still rides along).
+    RealTime,
+    /// The recorded timeline this many times faster, every frame keeping its recorded
+    /// sensor-local stamp: only a `sync` that places frames on their recorded server stamps
+    /// can align them.
+    Faster(f64),
+}
+
+impl Pace {
+    /// `fast`: sending a whole trial at once overflowed dora's queues and lost frames (its
+    /// direct path drops silently), so "as fast as possible" is this bounded speed-up.
+    pub const FAST: Pace = Pace::Faster(20.0);
+}
+
 /// One sensor of a trial recording played back. Frames keep their recorded `seq`, joints and
 /// true stamp, and carry their recorded server placement ([`Captured::recorded`]). The
 /// timeline is the recording's server clock: frame `i` is due at host time
-/// `start + (tᵢ − origin)`, `tᵢ` its server stamp (a frame recorded before its sensor was
-/// synchronised is placed with that sensor's first recorded mapping), `origin` shared by every
-/// sensor of the recording so that their sources stay in step.
+/// `start + (tᵢ − origin) / speed`, `tᵢ` its server stamp (a frame recorded before its sensor
+/// was synchronised is placed with that sensor's first recorded mapping), `origin` shared by
+/// every sensor of the recording so that their sources stay in step ([`Pace`]).
 ///
-/// - real time: each frame is re-stamped by the node's own sensor clock at its due instant,
-///   so `sync` synchronises it afresh, as a live sensor's (the recorded clock jitter is not
-///   reproduced; the recorded placement still rides along).
-/// - as fast as possible: every frame is due at once and keeps its recorded sensor-local
-///   stamp; only a `sync` that places frames on their recorded server stamps can align them.
+/// A dataflow delivers nothing sent before the receiver listens: faster than real time, the
+/// play starts when the receiver shows it is there ([`Self::receiver_ready`]: `sync`'s first
+/// NTP request), or [`FAST_START_TIMEOUT_NANOS`] after the stream was made without one.
 #[derive(Debug, Clone)]
 pub struct RecordedSensor {
     frames: Vec<FrameTiming>,
-    due_nanos: Vec<i64>,
+    /// Recorded time of each frame after the origin, ns (non-decreasing).
+    offsets_nanos: Vec<i64>,
     at: usize,
-    fast: bool,
-    start_nanos: i64,
+    pace: Pace,
+    made_nanos: i64,
+    start_nanos: Option<i64>,
+    /// Faster than real time: the host time until which the source stays after its last
+    /// frame (set then), so the frames still queued for the receiver reach it.
+    linger_until: Option<i64>,
+    done: bool,
 }
+
+/// How long a recording played faster than real time keeps its source alive after the last
+/// frame, ns: a dataflow node that exits with frames still queued for a slower receiver
+/// loses them (measured: the last third of a sensor's frames at 20× real time).
+pub const FAST_LINGER_NANOS: i64 = 2_000_000_000;
+
+/// How long a recording played faster than real time waits for its receiver, ns.
+pub const FAST_START_TIMEOUT_NANOS: i64 = 10_000_000_000;
 
 impl RecordedSensor {
     /// The frames of `sensor_id` in `recording` (in recorded order), the timeline from
-    /// `origin_nanos` on the recording's server clock ([`recording_origin`]) starting at host
-    /// time `start_nanos`. Fewer than one frame is allowed: the source then ends at once.
+    /// `origin_nanos` on the recording's server clock ([`recording_origin`]); made at host
+    /// time `now` (in real time the play starts then). No frame is allowed: the source then
+    /// ends at once.
     #[must_use]
     pub fn new(
         recording: &[FrameTiming],
         sensor_id: &str,
         origin_nanos: i64,
-        fast: bool,
-        start_nanos: i64,
+        pace: Pace,
+        now: i64,
     ) -> Self {
         let frames: Vec<FrameTiming> = recording
             .iter()
@@ -363,23 +395,25 @@ impl RecordedSensor {
         let first_mapping = frames
             .iter()
             .find_map(|f| Some(f.server_stamp_nanos? - f.local_stamp_nanos));
-        let mut due_nanos = Vec::with_capacity(frames.len());
-        let mut last = start_nanos;
+        let mut offsets_nanos = Vec::with_capacity(frames.len());
+        let mut last = 0;
         for f in &frames {
             let t = f.server_stamp_nanos.unwrap_or_else(|| {
                 f.local_stamp_nanos
                     .saturating_add(first_mapping.unwrap_or(origin_nanos - f.local_stamp_nanos))
             });
-            let due = start_nanos.saturating_add(t.saturating_sub(origin_nanos).max(0));
-            last = last.max(due);
-            due_nanos.push(last);
+            last = t.saturating_sub(origin_nanos).max(last);
+            offsets_nanos.push(last);
         }
         Self {
             frames,
-            due_nanos,
+            offsets_nanos,
             at: 0,
-            fast,
-            start_nanos,
+            pace,
+            made_nanos: now,
+            start_nanos: (pace == Pace::RealTime).then_some(now),
+            linger_until: None,
+            done: false,
         }
     }
 
@@ -395,26 +429,55 @@ impl RecordedSensor {
         self.frames.is_empty()
     }
 
-    /// Host time of the next frame (as fast as possible: the start, so always due); `None`
-    /// when played out.
+    /// Host time of the next frame (after the last, faster than real time: the end of the
+    /// linger, [`FAST_LINGER_NANOS`]); `None` when played out.
     #[must_use]
     pub fn next_due(&self) -> Option<i64> {
-        let due = *self.due_nanos.get(self.at)?;
-        Some(if self.fast { self.start_nanos } else { due })
+        if self.done {
+            return None;
+        }
+        if self.at == self.frames.len() {
+            return self.linger_until;
+        }
+        let offset = *self.offsets_nanos.get(self.at)?;
+        let Some(start) = self.start_nanos else {
+            return Some(self.made_nanos.saturating_add(FAST_START_TIMEOUT_NANOS));
+        };
+        let offset = match self.pace {
+            Pace::RealTime => offset,
+            Pace::Faster(speed) => (offset as f64 / speed.max(1e-9)).round() as i64,
+        };
+        Some(start.saturating_add(offset))
+    }
+
+    /// The receiver of the frames is listening: faster than real time, the play starts at
+    /// host time `now`.
+    pub fn receiver_ready(&mut self, now: i64) {
+        self.start_nanos.get_or_insert(now);
     }
 
     /// The next recorded frame; in real time stamped by `clock` at its due instant.
     pub fn capture(&mut self, clock: &mut SensorClock) -> Option<Captured> {
-        let recorded = self.frames.get(self.at)?;
-        let due = self.due_nanos.get(self.at).copied().unwrap_or_default();
+        let due = self.next_due()?;
+        // Waited for the receiver in vain: start now.
+        self.start_nanos.get_or_insert(due);
+        let Some(recorded) = self.frames.get(self.at) else {
+            self.done = true;
+            return None;
+        };
         self.at += 1;
+        if self.at == self.frames.len() {
+            match self.pace {
+                Pace::RealTime => self.done = true,
+                Pace::Faster(_) => self.linger_until = Some(due.saturating_add(FAST_LINGER_NANOS)),
+            }
+        }
         let frame = SkeletonFrame {
             sensor_id: recorded.sensor_id.clone(),
             seq: recorded.seq,
-            local_stamp_nanos: if self.fast {
-                recorded.local_stamp_nanos
-            } else {
-                clock.local(due)
+            local_stamp_nanos: match self.pace {
+                Pace::RealTime => clock.local(due),
+                Pace::Faster(_) => recorded.local_stamp_nanos,
             },
             joints: recorded.joints.clone(),
         };
