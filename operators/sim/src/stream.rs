@@ -594,4 +594,72 @@ mod tests {
         let err = SimulatedSensor::new(&rig, walker_lap(), &params("k9"), start).unwrap_err();
         assert!(err.to_string().contains("k1, k2, k3"), "{err}");
     }
+
+    /// A recording's sensor plays in recorded order on the shared timeline: in real time at
+    /// `start + (server − origin)`, re-stamped by the node's clock; 20× faster only once the
+    /// receiver is ready, keeping the recorded local stamps and placements; then lingers and
+    /// ends.
+    #[test]
+    fn recorded_sensor_keeps_the_recorded_placement() {
+        let origin = 1_000_000_000_000;
+        let frame = |sensor: &str, seq: u64, server: Option<i64>| FrameTiming {
+            sensor_id: sensor.into(),
+            seq,
+            local_stamp_nanos: origin + 35_000_000 + seq as i64 * 33_333_333,
+            server_stamp_nanos: server,
+            uncertainty_nanos: server.map(|_| 40_000),
+            offset_nanos: None,
+            drift_ppm: None,
+            true_stamp_nanos: None,
+            joints: Vec::new(),
+        };
+        let recording = vec![
+            frame("k1", 0, None),
+            frame("k2", 0, Some(origin + 10_000_000)),
+            frame("k1", 1, Some(origin + 33_333_333)),
+            frame("k1", 2, Some(origin + 66_666_666)),
+        ];
+        assert_eq!(recording_origin(&recording), origin + 10_000_000);
+        let start = 5_000_000_000_000;
+        let mut clock = SensorClock::new(SimClock::new(0, 0.0), start, Simulator::sensor_rng(1, 0));
+        let mut live = RecordedSensor::new(&recording, "k1", origin, Pace::RealTime, start);
+        assert_eq!(live.len(), 3);
+        // The unsynchronised first frame is placed with the sensor's first mapping.
+        assert_eq!(live.next_due(), Some(start));
+        let c = live.capture(&mut clock).unwrap();
+        assert_eq!((c.frame.seq, c.recorded), (0, None));
+        assert_eq!(live.next_due(), Some(start + 33_333_333));
+        let c = live.capture(&mut clock).unwrap();
+        assert_eq!(c.frame.local_stamp_nanos, start + 33_333_333);
+        assert_eq!(
+            c.recorded,
+            Some(RecordedPlacement {
+                server_stamp_nanos: origin + 33_333_333,
+                uncertainty_nanos: 40_000
+            })
+        );
+        live.capture(&mut clock).unwrap();
+        assert_eq!(live.next_due(), None);
+
+        let mut fast = RecordedSensor::new(&recording, "k1", origin, Pace::FAST, start);
+        assert_eq!(fast.next_due(), Some(start + FAST_START_TIMEOUT_NANOS));
+        fast.receiver_ready(start + 7);
+        assert_eq!(fast.next_due(), Some(start + 7));
+        let seqs: Vec<_> = (0..3)
+            .map(|_| {
+                let c = fast.capture(&mut clock).unwrap();
+                assert_eq!(
+                    c.frame.local_stamp_nanos,
+                    recording[0].local_stamp_nanos + c.frame.seq as i64 * 33_333_333
+                );
+                c.frame.seq
+            })
+            .collect();
+        assert_eq!(seqs, [0, 1, 2]);
+        let linger = fast.next_due().unwrap();
+        assert_eq!(linger, start + 7 + 3_333_333 + FAST_LINGER_NANOS);
+        assert!(fast.capture(&mut clock).is_none());
+        assert_eq!(fast.next_due(), None);
+        assert!(RecordedSensor::new(&recording, "k9", origin, Pace::FAST, start).is_empty());
+    }
 }
