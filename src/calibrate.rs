@@ -1,5 +1,6 @@
 //! `trigait calibrate`: the rig from the walk itself, on a simulated walk scored against the
-//! true rig (`trigait-calibration-sim`); this module only wires arguments and prints.
+//! true rig (`trigait-calibration-sim`), or on a trial recording's per-sensor joint tracks
+//! (`--recording`, `trigait-recording`); this module only wires arguments and prints.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -49,6 +50,15 @@ pub struct Args {
     /// Print the report as JSON instead of tables.
     #[arg(long)]
     json: bool,
+    /// Calibrate from a trial recording instead (a recorder's `OUTPUT_DIR`: its `frames.csv`,
+    /// the frames on their recorded server stamps); `--init rig` then starts from
+    /// `--start-rig`. The simulation options do not apply.
+    #[arg(long)]
+    recording: Option<PathBuf>,
+    /// With `--recording` and `--init rig`: the rough rig to start from (`thesis`, `ring-N` or
+    /// a YAML file; default: the recording's own `rig.yml`, the rig the trial ran with).
+    #[arg(long)]
+    start_rig: Option<String>,
 }
 
 fn parse_perturb(s: &str) -> Result<(f64, f64), String> {
@@ -66,8 +76,112 @@ fn parse_perturb(s: &str) -> Result<(f64, f64), String> {
     Ok((m, deg))
 }
 
+/// Per-sensor joint tracks of a recording: every synchronised frame at its server stamp,
+/// seconds after the recording's first; frames recorded before their sensor was synchronised
+/// are left out (they have no common time).
+fn tracks_of(frames: &[trigait_schema::FrameTiming]) -> Vec<trigait_calibration::SensorTrack> {
+    let origin = frames
+        .iter()
+        .filter_map(|f| f.server_stamp_nanos)
+        .min()
+        .unwrap_or(0);
+    trigait_recording::sensor_ids(frames)
+        .into_iter()
+        .map(|id| trigait_calibration::SensorTrack {
+            frames: frames
+                .iter()
+                .filter(|f| f.sensor_id == id)
+                .filter_map(|f| {
+                    Some(trigait_calibration::TrackFrame {
+                        t_secs: (f.server_stamp_nanos? - origin) as f64 * 1e-9,
+                        joints: f.joints.clone(),
+                    })
+                })
+                .collect(),
+            id,
+        })
+        .collect()
+}
+
+/// `trigait calibrate --recording DIR`.
+fn run_recording(args: &Args, dir: &std::path::Path) -> eyre::Result<()> {
+    let frames_path = dir.join(trigait_recording::FRAMES_FILE);
+    let frames = trigait_recording::read_frames(&frames_path)
+        .wrap_err_with(|| format!("reading the recording {}", dir.display()))?;
+    let tracks = tracks_of(&frames);
+    let start = match (&args.start_rig, args.init.as_str()) {
+        (_, "data") => None,
+        (Some(spec), _) => Some(
+            trigait_rig::Rig::from_spec(spec)
+                .map_err(|e| eyre::eyre!("--start-rig {spec:?}: {e}"))?,
+        ),
+        (None, _) => {
+            let path = dir.join(trigait_recording::RIG_FILE);
+            Some(
+                trigait_rig::Rig::from_spec(&path.display().to_string()).map_err(|e| {
+                    eyre::eyre!(
+                        "the recording's rig {}: {e} (or give --start-rig)",
+                        path.display()
+                    )
+                })?,
+            )
+        }
+    };
+    let initial = start
+        .as_ref()
+        .map_or(trigait_calibration::Initial::FromData, |rig| {
+            trigait_calibration::Initial::Rig(rig)
+        });
+    let timer = std::time::Instant::now();
+    let calibration =
+        trigait_calibration::calibrate(&tracks, initial, &trigait_calibration::Params::default())
+            .wrap_err_with(|| format!("calibrating from {}", frames_path.display()))?;
+    let secs = timer.elapsed().as_secs_f64();
+    let name = dir.file_name().map_or_else(
+        || "recording".to_owned(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    if let Some(path) = &args.output {
+        write_rig(path, &format!("{name}-calibrated"), &calibration)?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&calibration)?);
+    } else {
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "trigait calibrate: recording {} ({} frames, {} sensors), start from {}, {} iterations, {secs:.3} s",
+            dir.display(),
+            frames.len(),
+            tracks.len(),
+            calibration.initial,
+            calibration.iterations
+        );
+        render_sensors(&mut out, &calibration);
+        render_findings(&mut out, &calibration);
+        print!("{out}");
+    }
+    Ok(())
+}
+
+fn write_rig(
+    path: &std::path::Path,
+    name: &str,
+    calibration: &trigait_calibration::Calibration,
+) -> eyre::Result<()> {
+    let file = trigait_calibration::rig_file(name, calibration);
+    let text = serde_yaml::to_string(&file).wrap_err("serialising the rig")?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).wrap_err_with(|| format!("creating {}", dir.display()))?;
+    }
+    std::fs::write(path, text).wrap_err_with(|| format!("writing {}", path.display()))
+}
+
 /// Runs `trigait calibrate`.
 pub fn run(args: &Args) -> eyre::Result<()> {
+    if let Some(dir) = &args.recording {
+        return run_recording(args, dir);
+    }
     let scenario = Scenario {
         motion: args.motion.clone(),
         rig: args.rig.clone(),
@@ -81,15 +195,11 @@ pub fn run(args: &Args) -> eyre::Result<()> {
     };
     let outcome = simulate(&scenario).wrap_err("calibrating a simulated walk")?;
     if let Some(path) = &args.output {
-        let file = trigait_calibration::rig_file(
+        write_rig(
+            path,
             &format!("{}-calibrated", outcome.rig),
             &outcome.calibration,
-        );
-        let text = serde_yaml::to_string(&file).wrap_err("serialising the rig")?;
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).wrap_err_with(|| format!("creating {}", dir.display()))?;
-        }
-        std::fs::write(path, text).wrap_err_with(|| format!("writing {}", path.display()))?;
+        )?;
     }
     if args.json {
         println!(
@@ -145,47 +255,7 @@ fn render(o: &Outcome) -> String {
         c.iterations,
         o.calibrate_secs
     );
-    let _ = writeln!(
-        out,
-        "\n{:<6} {:>22} {:>14} {:>22} {:>20} {:>9} {:>8} {:>8} {:>7}",
-        "sensor",
-        "position x/y/z m",
-        "ypr deg",
-        "σ x/y/z mm",
-        "σ rot x/y/z deg",
-        "resid mm",
-        "outliers",
-        "swapped",
-        "ref"
-    );
-    for s in &c.sensors {
-        let Some(p) = s.world_from_kinect else {
-            let _ = writeln!(out, "{:<6} not calibrated", s.id);
-            continue;
-        };
-        let t = p.translation.vector;
-        let ypr = trigait_calibration::yaw_pitch_roll_deg(&p.rotation);
-        let [sx, sy, sz] = s.position_sigma_m;
-        let [rx, ry, rz] = s.rotation_sigma_rad;
-        let _ = writeln!(
-            out,
-            "{:<6} {:>22} {:>14} {:>22} {:>20} {:>9.1} {:>8} {:>8} {:>7}",
-            s.id,
-            format!("{:.3} {:.3} {:.3}", t.x, t.y, t.z),
-            format!("{:.1} {:.1} {:.1}", ypr[0], ypr[1], ypr[2]),
-            format!("{:.1} {:.1} {:.1}", sx * 1e3, sy * 1e3, sz * 1e3),
-            format!(
-                "{:.2} {:.2} {:.2}",
-                rx.to_degrees(),
-                ry.to_degrees(),
-                rz.to_degrees()
-            ),
-            s.residual_rms_m * 1e3,
-            s.outliers,
-            s.swapped_frames,
-            if s.reference { "yes" } else { "" }
-        );
-    }
+    render_sensors(&mut out, c);
     let _ = writeln!(
         out,
         "\nagainst the truth (its world frame fixed from the true joints the same way):"
@@ -238,6 +308,57 @@ fn render(o: &Outcome) -> String {
         o.calibrate_secs / o.fusion_pass_secs.max(1e-9),
         o.fusion_pass_secs
     );
+    render_findings(&mut out, c);
+    out
+}
+
+/// The per-sensor table: pose, uncertainty, residual, outliers, swaps.
+fn render_sensors(out: &mut String, c: &trigait_calibration::Calibration) {
+    let _ = writeln!(
+        out,
+        "\n{:<6} {:>22} {:>14} {:>22} {:>20} {:>9} {:>8} {:>8} {:>7}",
+        "sensor",
+        "position x/y/z m",
+        "ypr deg",
+        "σ x/y/z mm",
+        "σ rot x/y/z deg",
+        "resid mm",
+        "outliers",
+        "swapped",
+        "ref"
+    );
+    for s in &c.sensors {
+        let Some(p) = s.world_from_kinect else {
+            let _ = writeln!(out, "{:<6} not calibrated", s.id);
+            continue;
+        };
+        let t = p.translation.vector;
+        let ypr = trigait_calibration::yaw_pitch_roll_deg(&p.rotation);
+        let [sx, sy, sz] = s.position_sigma_m;
+        let [rx, ry, rz] = s.rotation_sigma_rad;
+        let _ = writeln!(
+            out,
+            "{:<6} {:>22} {:>14} {:>22} {:>20} {:>9.1} {:>8} {:>8} {:>7}",
+            s.id,
+            format!("{:.3} {:.3} {:.3}", t.x, t.y, t.z),
+            format!("{:.1} {:.1} {:.1}", ypr[0], ypr[1], ypr[2]),
+            format!("{:.1} {:.1} {:.1}", sx * 1e3, sy * 1e3, sz * 1e3),
+            format!(
+                "{:.2} {:.2} {:.2}",
+                rx.to_degrees(),
+                ry.to_degrees(),
+                rz.to_degrees()
+            ),
+            s.residual_rms_m * 1e3,
+            s.outliers,
+            s.swapped_frames,
+            if s.reference { "yes" } else { "" }
+        );
+    }
+}
+
+/// The findings, or that there are none.
+fn render_findings(out: &mut String, c: &trigait_calibration::Calibration) {
     if c.findings.is_empty() {
         let _ = writeln!(
             out,
@@ -249,5 +370,4 @@ fn render(o: &Outcome) -> String {
             let _ = writeln!(out, "  - {}", f.message);
         }
     }
-    out
 }

@@ -4,7 +4,9 @@
 
 use eyre::{Context, bail, eyre};
 use trigait_sim::clock::SimClock;
-use trigait_sim::stream::{ReplayedSensor, SimulatedSensor, SimulatedSensorParams};
+use trigait_sim::stream::{
+    Pace, RecordedSensor, ReplayedSensor, SimulatedSensor, SimulatedSensorParams, recording_origin,
+};
 use trigait_skeleton::{Joint, MotionClip};
 
 pub use trigait_sim::stream::{Captured, SensorClock};
@@ -18,6 +20,8 @@ pub enum Source {
     Sim(Box<SimulatedSensor>),
     /// A recorded SDK skeleton file.
     Replay(ReplayedSensor),
+    /// One sensor of a trial recording.
+    Recording(RecordedSensor),
 }
 
 /// Host time, ns since the UNIX epoch (the server clock of a one-host graph).
@@ -87,6 +91,7 @@ impl Source {
                     now,
                 )))
             }
+            Backend::Recording { file, pace } => recording_source(config, file, *pace, now),
             Backend::Freenect2 => {
                 if cfg!(feature = "freenect2") {
                     bail!(
@@ -109,6 +114,15 @@ impl Source {
         match self {
             Source::Sim(s) => Some(s.next_due()),
             Source::Replay(r) => r.next_due(),
+            Source::Recording(r) => r.next_due(),
+        }
+    }
+
+    /// The frames' receiver has shown it listens (an NTP request came): a recording played
+    /// as fast as possible starts then.
+    pub fn receiver_ready(&mut self, now: i64) {
+        if let Source::Recording(r) = self {
+            r.receiver_ready(now);
         }
     }
 
@@ -117,8 +131,39 @@ impl Source {
         match self {
             Source::Sim(s) => Some(s.capture(clock)),
             Source::Replay(r) => r.capture(now, clock),
+            Source::Recording(r) => r.capture(clock),
         }
     }
+}
+
+/// `config.sensor_id`'s frames of the recording `file`; a recording without them is an error
+/// naming the sensors it has.
+fn recording_source(
+    config: &Config,
+    file: &std::path::Path,
+    pace: Pace,
+    now: i64,
+) -> eyre::Result<Source> {
+    let frames = trigait_recording::read_frames(file)
+        .with_context(|| format!("kinect-source: {}={}", config::RECORDING, file.display()))?;
+    let sensor = RecordedSensor::new(
+        &frames,
+        &config.sensor_id,
+        recording_origin(&frames),
+        pace,
+        now,
+    );
+    if sensor.is_empty() {
+        bail!(
+            "kinect-source: {}={}: no frames of {}={:?} (the recording has {})",
+            config::RECORDING,
+            file.display(),
+            config::SENSOR_ID,
+            config.sensor_id,
+            trigait_recording::sensor_ids(&frames).join(", ")
+        );
+    }
+    Ok(Source::Recording(sensor))
 }
 
 /// The motion as an endless lap: out and back along the walkway.

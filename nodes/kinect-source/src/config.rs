@@ -4,7 +4,7 @@
 //! |---|---|---|---|
 //! | `SENSOR_ID` | string | required | the sensor's id in the rig file (`k1`) |
 //! | `RIG` | `thesis`, `ring-N` or a YAML path | `thesis` | sensor poses (the simulator needs them) |
-//! | `BACKEND` | `sim`, `replay`, `freenect2` | `sim` | where frames come from |
+//! | `BACKEND` | `sim`, `replay`, `recording`, `freenect2` | `sim` | where frames come from |
 //! | `MOTION` | `walker` or a C3D/TRC/CSV path | `walker` | what the simulated subject does (played there and back, endlessly) |
 //! | `WALK_SECS` | seconds | `2.5` | one-way duration of the embedded walker |
 //! | `JOINTS` | `legs` or `all` | `legs` | joints reported |
@@ -17,7 +17,8 @@
 //! | `CLOCK_STEP_AT_SECS` | seconds ≥ 0 | none | set the simulated clock by `CLOCK_STEP_MILLIS` this long after the source starts (an NTP daemon or a person stepping the sensor PC's clock); `sim` and `replay` |
 //! | `CLOCK_STEP_MILLIS` | ms | required with `CLOCK_STEP_AT_SECS` | the step (positive: the clock jumps forward), at most ±1 h |
 //! | `REPLAY_FILE` | path | required for `replay` | Kinect v2 SDK skeleton text file (either format) |
-//! | `REPLAY_SPEED` | `realtime` or `fast` | `realtime` | play at 30 Hz or as fast as possible |
+//! | `REPLAY_SPEED` | `realtime` or `fast` (`recording`: also a speed-up factor ≥ 1) | `realtime` | play at 30 Hz (`recording`: on the recorded timeline) or as fast as possible (`recording`: 20× real time, the bounded speed dora delivers without loss) |
+//! | `RECORDING` | path | required for `recording` | a trial recording's `frames.csv` (the recorder's); this source plays `SENSOR_ID`'s frames: in real time re-stamped by this node's clock, faster with the recorded stamps (then `sync` needs `TIMESTAMPS: recorded`) |
 //! | `REPLAY_LOOP` | bool | `true` | start over at the end of the file |
 //! | `GROUND_TRUTH` | bool | `true` for the rig's first sensor | send the simulated ground truth on `ground_truth` (one source per graph, so each instant is sent once) |
 //! | `STOP_AFTER_FRAMES` | integer | none | stop after this many frames (tests: a source dying mid-run) |
@@ -60,6 +61,8 @@ pub const CLOCK_JITTER_MICROS: &str = "CLOCK_JITTER_MICROS";
 pub const REPLAY_FILE: &str = "REPLAY_FILE";
 /// Env var: replay speed.
 pub const REPLAY_SPEED: &str = "REPLAY_SPEED";
+/// Env var: trial recording.
+pub const RECORDING: &str = "RECORDING";
 /// Env var: replay loop.
 pub const REPLAY_LOOP: &str = "REPLAY_LOOP";
 /// Env var: when the simulated clock steps, seconds after the source starts.
@@ -92,6 +95,13 @@ pub enum Backend {
         /// Start over at the end.
         looped: bool,
     },
+    /// One sensor of a trial recording (`trigait-recording`).
+    Recording {
+        /// Its `frames.csv`.
+        file: PathBuf,
+        /// How fast.
+        pace: trigait_sim::stream::Pace,
+    },
     /// A real Kinect v2 through libfreenect2.
     Freenect2,
 }
@@ -103,6 +113,8 @@ pub enum BackendName {
     Sim,
     /// `replay`.
     Replay,
+    /// `recording`.
+    Recording,
     /// `freenect2`.
     Freenect2,
 }
@@ -113,8 +125,9 @@ impl FromStr for BackendName {
         match s {
             "sim" => Ok(Self::Sim),
             "replay" => Ok(Self::Replay),
+            "recording" => Ok(Self::Recording),
             "freenect2" => Ok(Self::Freenect2),
-            _ => Err("expected `sim`, `replay` or `freenect2`"),
+            _ => Err("expected `sim`, `replay`, `recording` or `freenect2`"),
         }
     }
 }
@@ -209,6 +222,23 @@ pub struct Config {
 
 const NODE: &str = "kinect-source";
 
+/// `REPLAY_SPEED` of a recording: `realtime`, `fast` or a speed-up factor.
+fn replay_pace(
+    lookup: &impl Fn(&str) -> Option<String>,
+) -> eyre::Result<trigait_sim::stream::Pace> {
+    use trigait_sim::stream::Pace;
+    match lookup(REPLAY_SPEED).as_deref().map(str::trim) {
+        None | Some("realtime") => Ok(Pace::RealTime),
+        Some("fast") => Ok(Pace::FAST),
+        Some(other) => match other.parse::<f64>() {
+            Ok(f) if f.is_finite() && (1.0..=1000.0).contains(&f) => Ok(Pace::Faster(f)),
+            _ => bail!(
+                "{NODE}: {REPLAY_SPEED}={other:?} is invalid: expected `realtime`, `fast` or a speed-up factor within 1–1000"
+            ),
+        },
+    }
+}
+
 impl Config {
     /// From the process environment.
     pub fn from_env() -> eyre::Result<Self> {
@@ -242,6 +272,12 @@ impl Config {
                 fast: env_parsed(NODE, &lookup, REPLAY_SPEED, ReplaySpeed::Realtime)?
                     == ReplaySpeed::Fast,
                 looped: env_flag(NODE, &lookup, REPLAY_LOOP, true)?,
+            },
+            BackendName::Recording => Backend::Recording {
+                file: lookup(RECORDING).map(PathBuf::from).ok_or_else(|| {
+                    eyre!("{NODE}: {RECORDING} is required with {BACKEND}=recording")
+                })?,
+                pace: replay_pace(&lookup)?,
             },
             BackendName::Freenect2 => Backend::Freenect2,
         };

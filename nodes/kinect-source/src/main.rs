@@ -123,6 +123,7 @@ pub fn run(
                     if request.sensor_id != config.sensor_id {
                         continue;
                     }
+                    source.receiver_ready(now_nanos());
                     let reply = request.answered(t2, clock.local(now_nanos()));
                     let array = reply.encode().context("encoding the NTP reply")?;
                     node.send_output(ntp_out.clone(), metadata.parameters, array)
@@ -163,6 +164,16 @@ fn send_capture(
     );
     if let Some(t) = captured.true_stamp_nanos {
         params.insert(ports::TRUE_STAMP_NANOS.to_owned(), Parameter::Integer(t));
+    }
+    if let Some(r) = captured.recorded {
+        params.insert(
+            ports::RECORDED_SERVER_STAMP_NANOS.to_owned(),
+            Parameter::Integer(r.server_stamp_nanos),
+        );
+        params.insert(
+            ports::RECORDED_UNCERTAINTY_NANOS.to_owned(),
+            Parameter::Integer(r.uncertainty_nanos),
+        );
     }
     let array = SkeletonFrameMessage::from(captured.frame)
         .encode()

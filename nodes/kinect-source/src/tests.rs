@@ -418,3 +418,51 @@ fn ntp_requests_in_replies_frames_and_truth_out() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `BACKEND: recording` needs `RECORDING`; a cut-off recording and one without the sensor are
+/// errors naming the file (and the line, or the sensors it has); a good one plays the
+/// sensor's frames with their recorded placement.
+#[test]
+fn recording_backend_errors_and_plays() {
+    let err =
+        Config::from_lookup(lookup(&[("SENSOR_ID", "k1"), ("BACKEND", "recording")])).unwrap_err();
+    assert!(
+        chain(&err).contains("RECORDING is required"),
+        "{}",
+        chain(&err)
+    );
+    let dir = scratch_dir("recording-backend");
+    let mut text = format!("{}\n", trigait_recording::FRAMES_HEADER);
+    text.push_str(
+        "k1,0,100,90,5,,,,knee_left,0.1,0.2,3,2\nk1,1,133,123,5,,,,knee_left,0.1,0.2,3,2\n",
+    );
+    let good = dir.join("frames.csv");
+    std::fs::write(&good, &text).unwrap();
+    let cut = dir.join("cut.csv");
+    std::fs::write(&cut, &text[..text.len() - 3]).unwrap();
+    let config = |sensor: &str, file: &std::path::Path| {
+        let file = file.display().to_string();
+        Config::from_lookup(lookup(&[
+            ("SENSOR_ID", sensor),
+            ("BACKEND", "recording"),
+            ("RECORDING", file.as_str()),
+            ("REPLAY_SPEED", "fast"),
+        ]))
+        .unwrap()
+    };
+    let err = Source::new(&config("k1", &cut), 0).unwrap_err();
+    assert!(chain(&err).contains("cut.csv:3:"), "{}", chain(&err));
+    let err = Source::new(&config("k2", &good), 0).unwrap_err();
+    assert!(
+        chain(&err).contains("the recording has k1"),
+        "{}",
+        chain(&err)
+    );
+    let c = config("k1", &good);
+    let mut source = Source::new(&c, 0).unwrap();
+    source.receiver_ready(0);
+    let mut clock = sensor_clock(&c, 0);
+    let first = source.capture(0, &mut clock).unwrap();
+    assert_eq!(first.frame.local_stamp_nanos, 100);
+    assert_eq!(first.recorded.map(|r| r.server_stamp_nanos), Some(90));
+}

@@ -7,6 +7,7 @@
 //! | `RERUN_CONNECT` | gRPC url | none | also stream to a running viewer (`rerun+http://127.0.0.1:9876/proxy`); never blocks when none is there |
 //! | `RIG` | `thesis`, `ring-N` or YAML path | `thesis` | sensor poses drawn as axes and frusta; must be the sources' rig (checked against the stamp on every pose and timing; a mismatch stops the node naming both) |
 //! | `RING_CAPACITY` | integer | `1000` | positions kept per joint (thesis: 1000) for the thesis text export |
+//! | `RECORD_FRAMES` | bool | `true` | also write the raw recording: `frames.csv` (every frame of every sensor, sensor-local and server time), `poses.csv` (every fused joint at its absolute instant) and `rig.yml` ([`crate::recording`]) |
 //! | `WARMUP_SECS` | seconds ≥ 0 | `1` | poses this soon after the first are warm-up: their latency is reported apart from the steady state (`summary.json`: `warmup`) |
 //!
 //! Inputs: `fused_pose`, `frame_timing` (every raw frame `sync` received, joints included) and
@@ -16,7 +17,7 @@
 use std::path::PathBuf;
 
 use eyre::bail;
-use trigait_node_config::{env_number_where, env_rig, env_value};
+use trigait_node_config::{env_flag, env_number_where, env_rig, env_value};
 use trigait_rig::Rig;
 
 /// Env var: output directory.
@@ -27,6 +28,8 @@ pub const RRD: &str = "RRD";
 pub const RERUN_CONNECT: &str = "RERUN_CONNECT";
 /// Env var: ring capacity.
 pub const RING_CAPACITY: &str = "RING_CAPACITY";
+/// Env var: write the raw recording.
+pub const RECORD_FRAMES: &str = "RECORD_FRAMES";
 /// Env var: warm-up length.
 pub const WARMUP_SECS: &str = "WARMUP_SECS";
 
@@ -47,6 +50,8 @@ pub struct Config {
     pub ring_capacity: usize,
     /// Warm-up after the first pose, ns ([`crate::stats::Stats::new`]).
     pub warmup_nanos: i64,
+    /// Write the raw recording ([`crate::recording`]).
+    pub record_frames: bool,
 }
 
 impl Config {
@@ -97,6 +102,7 @@ impl Config {
             rig,
             ring_capacity,
             warmup_nanos: (warmup_secs * 1e9).round() as i64,
+            record_frames: env_flag(NODE, &lookup, RECORD_FRAMES, true)?,
         })
     }
 }

@@ -10,6 +10,7 @@
 mod config;
 mod export;
 mod gait;
+mod recording;
 mod stats;
 #[cfg(test)]
 mod tests;
@@ -81,6 +82,7 @@ struct Recorder {
     ring: Ring,
     trajectory: trigait_fusion::Trajectory,
     live: LiveFiles,
+    recording: Option<recording::Recording>,
     last_update_nanos: i64,
     update_errors: u64,
 }
@@ -99,6 +101,11 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
         ring: Ring::new(config.ring_capacity),
         trajectory: trigait_fusion::Trajectory::new(),
         live: LiveFiles::start(&config.out_dir).context("recorder: OUTPUT_DIR")?,
+        recording: config
+            .record_frames
+            .then(|| recording::Recording::start(&config.out_dir, &config.rig))
+            .transpose()
+            .context("recorder: starting the raw recording")?,
         last_update_nanos: now_nanos(),
         update_errors: 0,
     };
@@ -172,6 +179,9 @@ impl Recorder {
             .and_then(|()| self.gait.push(&self.rec, &pose));
         self.ring.push(&pose);
         self.trajectory.push(&pose);
+        if let Some(recording) = &mut self.recording {
+            recording.push_pose(&pose);
+        }
         self.stats.push_pose(pose, now, sent);
         logged
     }
@@ -185,6 +195,9 @@ impl Recorder {
                     self.stats.push_frame(&row.sensor_id, row.seq, now);
                 }
                 self.stats.push_timing(&rows);
+                if let Some(recording) = &mut self.recording {
+                    recording.push_frames(&rows);
+                }
                 viz::log_timing(&self.rec, &rows)?;
                 rows.iter()
                     .try_for_each(|row| viz::log_raw(&self.rec, row, now))
@@ -217,6 +230,11 @@ impl Recorder {
         let updated = self
             .live
             .update_trajectory(&self.trajectory)
+            .and_then(|()| {
+                self.recording
+                    .as_mut()
+                    .map_or(Ok(()), recording::Recording::flush)
+            })
             .and_then(|()| write_summary(&config.out_dir, &summary).map(|_| ()));
         if let Err(e) = updated {
             self.update_errors += 1;
@@ -250,6 +268,11 @@ impl Recorder {
             .context("recorder: writing the thesis text export")?;
         write_trajectory(&config.out_dir, &self.trajectory)
             .context("recorder: writing the trajectory files")?;
+        if let Some(recording) = &mut self.recording {
+            recording
+                .flush()
+                .context("recorder: writing the raw recording")?;
+        }
         let path = write_summary(&config.out_dir, &summary).context("recorder")?;
         self.rec.flush_blocking().ok();
         drop(self.rec);

@@ -174,6 +174,8 @@ struct State {
     request_id: u64,
     /// The rig the first stamped frame was made with; every later source must share it.
     rig: Option<RigStamp>,
+    /// Frames are placed on their recorded server stamps (`TIMESTAMPS: recorded`).
+    recorded_time: bool,
 }
 
 /// The event loop.
@@ -204,6 +206,7 @@ pub fn run(
         ntp_schedule: NtpSchedule::new(sensors.len(), config.ntp_interval_nanos),
         request_id: 0,
         rig: None,
+        recorded_time: config.recorded_time,
         sensors,
         routes,
     };
@@ -298,6 +301,8 @@ impl State {
     /// Sends the NTP requests due, the sets whose deadline passed and the frame timings
     /// gathered since the last tick.
     fn on_tick(&mut self, node: &mut DoraNode, now: i64) -> eyre::Result<()> {
+        // Under recorded time the NTP requests only tell the replaying sources that sync
+        // listens (their replies are not used).
         for i in self.ntp_schedule.due(now) {
             let Some(sensor) = self.sensors.get(i) else {
                 continue;
@@ -313,15 +318,17 @@ impl State {
                 .with_context(|| format!("sync: sending {port}"))?;
             self.counters.ntp_requests += 1;
         }
-        let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
-        emit(
-            node,
-            &self.out,
-            sets,
-            now,
-            self.rig.as_ref(),
-            &mut self.counters,
-        )?;
+        if !self.recorded_time {
+            let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
+            emit(
+                node,
+                &self.out,
+                sets,
+                now,
+                self.rig.as_ref(),
+                &mut self.counters,
+            )?;
+        }
         self.send_timings(node)
     }
 
@@ -415,6 +422,9 @@ impl State {
                 None => self.rig = Some(theirs),
             }
         }
+        if self.recorded_time {
+            return self.on_recorded_frame(node, frame, params, now);
+        }
         let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
         emit(
             node,
@@ -443,6 +453,60 @@ impl State {
                 )?;
             }
             Err(SyncError::NotSynchronised { .. }) => self.counters.frames_dropped += 1,
+            Err(e) => {
+                self.counters.frames_dropped += 1;
+                warn!("frame dropped: {e}");
+            }
+        }
+        Ok(())
+    }
+}
+
+impl State {
+    /// A replayed frame placed on the server stamp its recording gave it (none: it was not
+    /// synchronised in the recorded run, and is dropped as it was then).
+    fn on_recorded_frame(
+        &mut self,
+        node: &mut DoraNode,
+        frame: trigait_skeleton::SkeletonFrame,
+        params: &MetadataParameters,
+        now: i64,
+    ) -> eyre::Result<()> {
+        let server = get_integer_param(params, ports::RECORDED_SERVER_STAMP_NANOS);
+        let uncertainty = get_integer_param(params, ports::RECORDED_UNCERTAINTY_NANOS);
+        self.timings.push(FrameTiming {
+            sensor_id: frame.sensor_id.clone(),
+            seq: frame.seq,
+            local_stamp_nanos: frame.local_stamp_nanos,
+            server_stamp_nanos: server,
+            uncertainty_nanos: server.map(|_| uncertainty.unwrap_or(0)),
+            offset_nanos: None,
+            drift_ppm: None,
+            true_stamp_nanos: get_integer_param(params, ports::TRUE_STAMP_NANOS),
+            joints: frame.joints.clone(),
+        });
+        let Some(server_stamp_nanos) = server else {
+            self.counters.frames_dropped += 1;
+            return Ok(());
+        };
+        let timed = trigait_sync::TimedFrame {
+            frame,
+            server_stamp_nanos,
+            time_uncertainty_nanos: uncertainty.unwrap_or(0),
+        };
+        let sent = get_integer_param(params, ports::SENT_NANOS).unwrap_or(now);
+        match self.buffer.push_timed(timed) {
+            Ok(sets) => {
+                let sets: Vec<AlignedSet> = sets.collect();
+                emit(
+                    node,
+                    &self.out,
+                    sets,
+                    sent,
+                    self.rig.as_ref(),
+                    &mut self.counters,
+                )?;
+            }
             Err(e) => {
                 self.counters.frames_dropped += 1;
                 warn!("frame dropped: {e}");

@@ -27,6 +27,12 @@ fn config_defaults_and_policy() {
     assert_eq!(c.params.policy, Policy::Slots);
     assert_eq!(c.params.slot_nanos, 20_000_000);
     assert_eq!(c.sensors.unwrap(), ["a", "b"]);
+    assert!(!c.recorded_time);
+    // Recorded time: no host-clock deadline, room for a source far ahead of the others.
+    let c = Config::from_lookup(lookup(&[("TIMESTAMPS", "recorded")])).unwrap();
+    assert!(c.recorded_time);
+    assert!(c.params.latency_deadline_nanos > 1_000_000_000_000_000);
+    assert!(c.params.max_frames_per_sensor >= 100_000);
 }
 
 /// An unknown policy (or interpolation, or a bad number) stops the node with its key named.
@@ -39,6 +45,7 @@ fn config_errors_name_node_key_and_value() {
         ("SLOT_MILLIS", "-3"),
         ("NTP_INTERVAL_MILLIS", "x"),
         ("SENSORS", " , "),
+        ("TIMESTAMPS", "gps"),
     ] {
         let text = chain(&Config::from_lookup(lookup(&[(key, raw)])).unwrap_err());
         assert!(text.starts_with("sync: ") && text.contains(key), "{text}");

@@ -52,6 +52,13 @@ pub const SENT_NANOS: &str = "trigait.sent_nanos";
 /// Metadata key (integer, ns) on a simulated frame: its true capture instant on the server clock,
 /// the `true_stamp_nanos` of [`crate::FrameTiming`] and [`crate::GroundTruth`].
 pub const TRUE_STAMP_NANOS: &str = "trigait.true_stamp_nanos";
+/// Metadata key (integer, ns) on a frame replayed from a recording: the server-clock stamp the
+/// recording's `sync` gave it (`frame_timing.server_stamp_nanos`); a `sync` with
+/// `TIMESTAMPS: recorded` places the frame there instead of mapping it with NTP.
+pub const RECORDED_SERVER_STAMP_NANOS: &str = "trigait.recorded_server_stamp_nanos";
+/// Metadata key (integer, ns) on a frame replayed from a recording: the uncertainty of
+/// [`RECORDED_SERVER_STAMP_NANOS`] (`frame_timing.uncertainty_nanos`).
+pub const RECORDED_UNCERTAINTY_NANOS: &str = "trigait.recorded_uncertainty_nanos";
 /// Metadata key (integer, ns): send time of the newest frame that made a set go out (or the
 /// `sync` clock when a deadline did); forwarded by `trilaterate`, read by `recorder` for the
 /// end-to-end latency.
@@ -75,6 +82,8 @@ pub const END_OF_STREAM: &str = "trigait.end_of_stream";
 pub const METADATA_KEYS: &[&str] = &[
     SENT_NANOS,
     TRUE_STAMP_NANOS,
+    RECORDED_SERVER_STAMP_NANOS,
+    RECORDED_UNCERTAINTY_NANOS,
     TRIGGER_SENT_NANOS,
     RIG_FINGERPRINT,
     RIG_NAME,

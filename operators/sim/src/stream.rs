@@ -6,6 +6,9 @@
 //!   walkway) at the sensor's frame rate and phase.
 //! - [`ReplayedSensor`]: a recorded Kinect v2 SDK skeleton file played back at the frame rate
 //!   or as fast as possible, optionally looped.
+//! - [`RecordedSensor`]: one sensor's frames of a trial recording (`trigait-recording`) played
+//!   back on the recorded timeline, in real time or as fast as possible, each frame carrying
+//!   where the recording's `sync` placed it on the server clock ([`RecordedPlacement`]).
 //! - [`SensorClock`]: the host clock (the server clock of a one-host graph) seen through a
 //!   simulated offset, drift and jitter ([`crate::clock::SimClock`]), which stamps both.
 
@@ -13,7 +16,7 @@ use rand_chacha::ChaCha8Rng;
 use trigait_kinect::NoiseModel;
 use trigait_motion::SdkFrame;
 use trigait_rig::Rig;
-use trigait_schema::GroundTruth;
+use trigait_schema::{FrameTiming, GroundTruth};
 use trigait_skeleton::{Joint, MotionClip, SkeletonFrame};
 
 use crate::Simulator;
@@ -61,6 +64,18 @@ pub struct Captured {
     /// Ground truth since the previous capture, one entry per instant (the truth-sending
     /// simulated sensor only).
     pub truth: Vec<GroundTruth>,
+    /// Where the recording's `sync` placed the frame on the server clock (replayed recordings
+    /// only, and only frames that were synchronised then).
+    pub recorded: Option<RecordedPlacement>,
+}
+
+/// A recorded frame's place on the recording's server clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RecordedPlacement {
+    /// Server-clock capture stamp, ns.
+    pub server_stamp_nanos: i64,
+    /// Its uncertainty, ns.
+    pub uncertainty_nanos: i64,
 }
 
 /// The sensor's clock: the host clock seen through a simulated offset, drift and jitter, drift
@@ -230,6 +245,7 @@ impl SimulatedSensor {
             frame,
             true_stamp_nanos: Some(t),
             truth,
+            recorded: None,
         }
     }
 }
@@ -300,8 +316,195 @@ impl ReplayedSensor {
             frame,
             true_stamp_nanos: None,
             truth: Vec::new(),
+            recorded: None,
         })
     }
+}
+
+/// How fast a recording plays.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pace {
+    /// On the recorded timeline, each frame re-stamped by the node's own sensor clock at its
+    /// due instant, so `sync` synchronises it afresh, as a live sensor's (the recorded clock
+    /// jitter is not reproduced; the recorded placement still rides along).
+    RealTime,
+    /// The recorded timeline this many times faster, every frame keeping its recorded
+    /// sensor-local stamp: only a `sync` that places frames on their recorded server stamps
+    /// can align them.
+    Faster(f64),
+}
+
+impl Pace {
+    /// `fast`: sending a whole trial at once overflowed dora's queues and lost frames (its
+    /// direct path drops silently), so "as fast as possible" is this bounded speed-up.
+    pub const FAST: Pace = Pace::Faster(20.0);
+}
+
+/// One sensor of a trial recording played back. Frames keep their recorded `seq`, joints and
+/// true stamp, and carry their recorded server placement ([`Captured::recorded`]). The
+/// timeline is the recording's server clock: frame `i` is due at host time
+/// `start + (tᵢ − origin) / speed`, `tᵢ` its server stamp (a frame recorded before its sensor
+/// was synchronised is placed with that sensor's first recorded mapping), `origin` shared by
+/// every sensor of the recording so that their sources stay in step ([`Pace`]).
+///
+/// A dataflow delivers nothing sent before the receiver listens: faster than real time, the
+/// play starts when the receiver shows it is there ([`Self::receiver_ready`]: `sync`'s first
+/// NTP request), or [`FAST_START_TIMEOUT_NANOS`] after the stream was made without one.
+#[derive(Debug, Clone)]
+pub struct RecordedSensor {
+    frames: Vec<FrameTiming>,
+    /// Recorded time of each frame after the origin, ns (non-decreasing).
+    offsets_nanos: Vec<i64>,
+    at: usize,
+    pace: Pace,
+    made_nanos: i64,
+    start_nanos: Option<i64>,
+    /// Faster than real time: the host time until which the source stays after its last
+    /// frame (set then), so the frames still queued for the receiver reach it.
+    linger_until: Option<i64>,
+    done: bool,
+}
+
+/// How long a recording played faster than real time keeps its source alive after the last
+/// frame, ns: a dataflow node that exits with frames still queued for a slower receiver
+/// loses them (measured: the last third of a sensor's frames at 20× real time).
+pub const FAST_LINGER_NANOS: i64 = 2_000_000_000;
+
+/// How long a recording played faster than real time waits for its receiver, ns.
+pub const FAST_START_TIMEOUT_NANOS: i64 = 10_000_000_000;
+
+impl RecordedSensor {
+    /// The frames of `sensor_id` in `recording` (in recorded order), the timeline from
+    /// `origin_nanos` on the recording's server clock ([`recording_origin`]); made at host
+    /// time `now` (in real time the play starts then). No frame is allowed: the source then
+    /// ends at once.
+    #[must_use]
+    pub fn new(
+        recording: &[FrameTiming],
+        sensor_id: &str,
+        origin_nanos: i64,
+        pace: Pace,
+        now: i64,
+    ) -> Self {
+        let frames: Vec<FrameTiming> = recording
+            .iter()
+            .filter(|f| f.sensor_id == sensor_id)
+            .cloned()
+            .collect();
+        // Server minus local of the sensor's first synchronised frame, for frames before it.
+        let first_mapping = frames
+            .iter()
+            .find_map(|f| Some(f.server_stamp_nanos? - f.local_stamp_nanos));
+        let mut offsets_nanos = Vec::with_capacity(frames.len());
+        let mut last = 0;
+        for f in &frames {
+            let t = f.server_stamp_nanos.unwrap_or_else(|| {
+                f.local_stamp_nanos
+                    .saturating_add(first_mapping.unwrap_or(origin_nanos - f.local_stamp_nanos))
+            });
+            last = t.saturating_sub(origin_nanos).max(last);
+            offsets_nanos.push(last);
+        }
+        Self {
+            frames,
+            offsets_nanos,
+            at: 0,
+            pace,
+            made_nanos: now,
+            start_nanos: (pace == Pace::RealTime).then_some(now),
+            linger_until: None,
+            done: false,
+        }
+    }
+
+    /// Frames of this sensor in the recording.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// Whether the recording has no frame of this sensor.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// Host time of the next frame (after the last, faster than real time: the end of the
+    /// linger, [`FAST_LINGER_NANOS`]); `None` when played out.
+    #[must_use]
+    pub fn next_due(&self) -> Option<i64> {
+        if self.done {
+            return None;
+        }
+        if self.at == self.frames.len() {
+            return self.linger_until;
+        }
+        let offset = *self.offsets_nanos.get(self.at)?;
+        let Some(start) = self.start_nanos else {
+            return Some(self.made_nanos.saturating_add(FAST_START_TIMEOUT_NANOS));
+        };
+        let offset = match self.pace {
+            Pace::RealTime => offset,
+            Pace::Faster(speed) => (offset as f64 / speed.max(1e-9)).round() as i64,
+        };
+        Some(start.saturating_add(offset))
+    }
+
+    /// The receiver of the frames is listening: faster than real time, the play starts at
+    /// host time `now`.
+    pub fn receiver_ready(&mut self, now: i64) {
+        self.start_nanos.get_or_insert(now);
+    }
+
+    /// The next recorded frame; in real time stamped by `clock` at its due instant.
+    pub fn capture(&mut self, clock: &mut SensorClock) -> Option<Captured> {
+        let due = self.next_due()?;
+        // Waited for the receiver in vain: start now.
+        self.start_nanos.get_or_insert(due);
+        let Some(recorded) = self.frames.get(self.at) else {
+            self.done = true;
+            return None;
+        };
+        self.at += 1;
+        if self.at == self.frames.len() {
+            match self.pace {
+                Pace::RealTime => self.done = true,
+                Pace::Faster(_) => self.linger_until = Some(due.saturating_add(FAST_LINGER_NANOS)),
+            }
+        }
+        let frame = SkeletonFrame {
+            sensor_id: recorded.sensor_id.clone(),
+            seq: recorded.seq,
+            local_stamp_nanos: match self.pace {
+                Pace::RealTime => clock.local(due),
+                Pace::Faster(_) => recorded.local_stamp_nanos,
+            },
+            joints: recorded.joints.clone(),
+        };
+        Some(Captured {
+            frame,
+            true_stamp_nanos: recorded.true_stamp_nanos,
+            truth: Vec::new(),
+            recorded: recorded
+                .server_stamp_nanos
+                .map(|server_stamp_nanos| RecordedPlacement {
+                    server_stamp_nanos,
+                    uncertainty_nanos: recorded.uncertainty_nanos.unwrap_or(0),
+                }),
+        })
+    }
+}
+
+/// The origin of a recording's timeline: its earliest server stamp (its earliest local stamp
+/// when no frame was synchronised), shared by the [`RecordedSensor`]s of every sensor.
+#[must_use]
+pub fn recording_origin(recording: &[FrameTiming]) -> i64 {
+    recording
+        .iter()
+        .filter_map(|f| f.server_stamp_nanos)
+        .min()
+        .or_else(|| recording.iter().map(|f| f.local_stamp_nanos).min())
+        .unwrap_or(0)
 }
 
 /// The first instant `phase + k·period` at or after `now`.
@@ -390,5 +593,73 @@ mod tests {
         assert!(!k3.capture(&mut clock()).truth.is_empty());
         let err = SimulatedSensor::new(&rig, walker_lap(), &params("k9"), start).unwrap_err();
         assert!(err.to_string().contains("k1, k2, k3"), "{err}");
+    }
+
+    /// A recording's sensor plays in recorded order on the shared timeline: in real time at
+    /// `start + (server − origin)`, re-stamped by the node's clock; 20× faster only once the
+    /// receiver is ready, keeping the recorded local stamps and placements; then lingers and
+    /// ends.
+    #[test]
+    fn recorded_sensor_keeps_the_recorded_placement() {
+        let origin = 1_000_000_000_000;
+        let frame = |sensor: &str, seq: u64, server: Option<i64>| FrameTiming {
+            sensor_id: sensor.into(),
+            seq,
+            local_stamp_nanos: origin + 35_000_000 + seq as i64 * 33_333_333,
+            server_stamp_nanos: server,
+            uncertainty_nanos: server.map(|_| 40_000),
+            offset_nanos: None,
+            drift_ppm: None,
+            true_stamp_nanos: None,
+            joints: Vec::new(),
+        };
+        let recording = vec![
+            frame("k1", 0, None),
+            frame("k2", 0, Some(origin + 10_000_000)),
+            frame("k1", 1, Some(origin + 33_333_333)),
+            frame("k1", 2, Some(origin + 66_666_666)),
+        ];
+        assert_eq!(recording_origin(&recording), origin + 10_000_000);
+        let start = 5_000_000_000_000;
+        let mut clock = SensorClock::new(SimClock::new(0, 0.0), start, Simulator::sensor_rng(1, 0));
+        let mut live = RecordedSensor::new(&recording, "k1", origin, Pace::RealTime, start);
+        assert_eq!(live.len(), 3);
+        // The unsynchronised first frame is placed with the sensor's first mapping.
+        assert_eq!(live.next_due(), Some(start));
+        let c = live.capture(&mut clock).unwrap();
+        assert_eq!((c.frame.seq, c.recorded), (0, None));
+        assert_eq!(live.next_due(), Some(start + 33_333_333));
+        let c = live.capture(&mut clock).unwrap();
+        assert_eq!(c.frame.local_stamp_nanos, start + 33_333_333);
+        assert_eq!(
+            c.recorded,
+            Some(RecordedPlacement {
+                server_stamp_nanos: origin + 33_333_333,
+                uncertainty_nanos: 40_000
+            })
+        );
+        live.capture(&mut clock).unwrap();
+        assert_eq!(live.next_due(), None);
+
+        let mut fast = RecordedSensor::new(&recording, "k1", origin, Pace::FAST, start);
+        assert_eq!(fast.next_due(), Some(start + FAST_START_TIMEOUT_NANOS));
+        fast.receiver_ready(start + 7);
+        assert_eq!(fast.next_due(), Some(start + 7));
+        let seqs: Vec<_> = (0..3)
+            .map(|_| {
+                let c = fast.capture(&mut clock).unwrap();
+                assert_eq!(
+                    c.frame.local_stamp_nanos,
+                    recording[0].local_stamp_nanos + c.frame.seq as i64 * 33_333_333
+                );
+                c.frame.seq
+            })
+            .collect();
+        assert_eq!(seqs, [0, 1, 2]);
+        let linger = fast.next_due().unwrap();
+        assert_eq!(linger, start + 7 + 3_333_333 + FAST_LINGER_NANOS);
+        assert!(fast.capture(&mut clock).is_none());
+        assert_eq!(fast.next_due(), None);
+        assert!(RecordedSensor::new(&recording, "k9", origin, Pace::FAST, start).is_empty());
     }
 }
