@@ -174,6 +174,10 @@ struct State {
     request_id: u64,
     /// The rig the first stamped frame was made with; every later source must share it.
     rig: Option<RigStamp>,
+    /// Sources whose input has closed.
+    closed: Vec<String>,
+    /// Sources whose last frame said their stream ends as planned.
+    ended: Vec<String>,
     /// Frames are placed on their recorded server stamps (`TIMESTAMPS: recorded`).
     recorded_time: bool,
 }
@@ -206,14 +210,13 @@ pub fn run(
         ntp_schedule: NtpSchedule::new(sensors.len(), config.ntp_interval_nanos),
         request_id: 0,
         rig: None,
+        closed: Vec::new(),
+        ended: Vec::new(),
         recorded_time: config.recorded_time,
         sensors,
         routes,
     };
     let mut stopped = false;
-    let mut closed: Vec<String> = Vec::new();
-    // Sources whose last frame said the stream ends as planned.
-    let mut ended: Vec<String> = Vec::new();
     while let Some(event) = events.recv() {
         trigait_node_log::warn_drops(&mut events);
         match event {
@@ -223,37 +226,21 @@ pub fn run(
                 match Input::parse(id.as_str()) {
                     Input::Tick => state.on_tick(&mut node, now)?,
                     Input::NtpReply(sensor) => state.on_ntp_reply(sensor, array.as_ref(), now),
-                    Input::Frame(sensor) => {
-                        if matches!(
-                            metadata.parameters.get(ports::END_OF_STREAM),
-                            Some(Parameter::Bool(true))
-                        ) {
-                            ended.push(sensor.to_owned());
-                        }
-                        state.on_frame(
-                            &mut node,
-                            sensor,
-                            &metadata.parameters,
-                            array.as_ref(),
-                            now,
-                        )?;
-                    }
+                    Input::Frame(sensor) => state.on_frame(
+                        &mut node,
+                        sensor,
+                        &metadata.parameters,
+                        array.as_ref(),
+                        now,
+                    )?,
                     Input::Unknown(id) => warn!(input = id, "ignoring an unknown input"),
                 }
             }
             Event::InputClosed { id } => {
-                if let Input::Frame(sensor) = Input::parse(id.as_str()) {
-                    closed.push(sensor.to_owned());
-                    if closed.len() < state.sensors.len() {
-                        if ended.iter().any(|e| e == sensor) {
-                            info!(%sensor, "source ended its stream");
-                        } else {
-                            warn!(%sensor, "source stopped; its sets go out incomplete from now on");
-                        }
-                    } else {
-                        info!("every source has ended; sending the last sets");
-                        break;
-                    }
+                if let Input::Frame(sensor) = Input::parse(id.as_str())
+                    && state.on_source_closed(sensor)
+                {
+                    break;
                 }
             }
             Event::Stop(_) => stopped = true,
@@ -261,23 +248,7 @@ pub fn run(
             _ => {}
         }
     }
-    let sets: Vec<AlignedSet> = state.buffer.flush().collect();
-    if stopped {
-        // dora delivers nothing a node sends after the stop reached the graph, so a set still
-        // waiting for the frames after its instant cannot arrive anywhere: it is counted here,
-        // not sent into the void.
-        state.counters.sets_unfinished_at_stop = sets.len() as u64;
-    } else {
-        emit(
-            &mut node,
-            &state.out,
-            sets,
-            now_nanos(),
-            state.rig.as_ref(),
-            &mut state.counters,
-        )?;
-        state.send_timings(&mut node)?;
-    }
+    state.finish(&mut node, stopped)?;
     let c = state.buffer.counters();
     info!(
         "frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; NTP in {} rejected {} steps {}; sets sent {} ({} incomplete, {} empty), {} unfinished at the stop",
@@ -298,6 +269,41 @@ pub fn run(
 }
 
 impl State {
+    /// A source's input closed: whether every source has now ended (the run's end).
+    fn on_source_closed(&mut self, sensor: &str) -> bool {
+        self.closed.push(sensor.to_owned());
+        if self.closed.len() >= self.sensors.len() {
+            info!("every source has ended; sending the last sets");
+            return true;
+        }
+        if self.ended.iter().any(|e| e == sensor) {
+            info!(%sensor, "source ended its stream");
+        } else {
+            warn!(%sensor, "source stopped; its sets go out incomplete from now on");
+        }
+        false
+    }
+
+    /// The end of the run: the sets still held go out, with the last frame timings, when the
+    /// sources ended; after a stop they are counted instead, because dora delivers nothing a
+    /// node sends after the stop reached the graph.
+    fn finish(&mut self, node: &mut DoraNode, stopped: bool) -> eyre::Result<()> {
+        let sets: Vec<AlignedSet> = self.buffer.flush().collect();
+        if stopped {
+            self.counters.sets_unfinished_at_stop = sets.len() as u64;
+            return Ok(());
+        }
+        emit(
+            node,
+            &self.out,
+            sets,
+            now_nanos(),
+            self.rig.as_ref(),
+            &mut self.counters,
+        )?;
+        self.send_timings(node)
+    }
+
     /// Sends the NTP requests due, the sets whose deadline passed and the frame timings
     /// gathered since the last tick.
     fn on_tick(&mut self, node: &mut DoraNode, now: i64) -> eyre::Result<()> {
@@ -401,6 +407,12 @@ impl State {
         array: &dyn Array,
         now: i64,
     ) -> eyre::Result<()> {
+        if matches!(
+            params.get(ports::END_OF_STREAM),
+            Some(Parameter::Bool(true))
+        ) {
+            self.ended.push(sensor.to_owned());
+        }
         let frame = match SkeletonFrameMessage::decode(array) {
             Ok(m) if m.frame.sensor_id == sensor => m.frame,
             Ok(m) => {
