@@ -293,14 +293,7 @@ impl State {
             self.counters.sets_unfinished_at_stop = sets.len() as u64;
             return Ok(());
         }
-        emit(
-            node,
-            &self.out,
-            sets,
-            now_nanos(),
-            self.rig.as_ref(),
-            &mut self.counters,
-        )?;
+        self.send_sets(node, sets, now_nanos())?;
         self.send_timings(node)
     }
 
@@ -326,16 +319,26 @@ impl State {
         }
         if !self.recorded_time {
             let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
-            emit(
-                node,
-                &self.out,
-                sets,
-                now,
-                self.rig.as_ref(),
-                &mut self.counters,
-            )?;
+            self.send_sets(node, sets, now)?;
         }
         self.send_timings(node)
+    }
+
+    /// Sends `sets`, each stamped with the rig and `trigger_sent_nanos`.
+    fn send_sets(
+        &mut self,
+        node: &mut DoraNode,
+        sets: Vec<AlignedSet>,
+        trigger_sent_nanos: i64,
+    ) -> eyre::Result<()> {
+        emit(
+            node,
+            &self.out,
+            sets,
+            trigger_sent_nanos,
+            self.rig.as_ref(),
+            &mut self.counters,
+        )
     }
 
     /// Sends the frame timings gathered since the last send, if any.
@@ -438,14 +441,7 @@ impl State {
             return self.on_recorded_frame(node, frame, params, now);
         }
         let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
-        emit(
-            node,
-            &self.out,
-            sets,
-            now,
-            self.rig.as_ref(),
-            &mut self.counters,
-        )?;
+        self.send_sets(node, sets, now)?;
         self.timings.push(timing_of(
             &self.buffer,
             &frame,
@@ -455,14 +451,7 @@ impl State {
         match self.buffer.push(frame) {
             Ok(sets) => {
                 let sets: Vec<AlignedSet> = sets.collect();
-                emit(
-                    node,
-                    &self.out,
-                    sets,
-                    sent,
-                    self.rig.as_ref(),
-                    &mut self.counters,
-                )?;
+                self.send_sets(node, sets, sent)?;
             }
             Err(SyncError::NotSynchronised { .. }) => self.counters.frames_dropped += 1,
             Err(e) => {
@@ -510,14 +499,7 @@ impl State {
         match self.buffer.push_timed(timed) {
             Ok(sets) => {
                 let sets: Vec<AlignedSet> = sets.collect();
-                emit(
-                    node,
-                    &self.out,
-                    sets,
-                    sent,
-                    self.rig.as_ref(),
-                    &mut self.counters,
-                )?;
+                self.send_sets(node, sets, sent)?;
             }
             Err(e) => {
                 self.counters.frames_dropped += 1;
