@@ -348,6 +348,7 @@ fn killing_a_source_mid_run() {
     std::thread::sleep(Duration::from_secs(1));
     kill_9(victim);
     let run = finish(child, dir);
+    run.assert_sets_delivered();
     let s = run.summary();
     let gaps = s["gaps"].as_array().unwrap();
     assert!(
