@@ -30,9 +30,6 @@ use crate::stats::{Stats, Summary};
 /// How often the files are brought up to date while the run goes, ns: half the second a kill
 /// may lose, the other half for the poses still in the pipeline.
 pub const FLUSH_NANOS: i64 = 500_000_000;
-/// How long a periodic flush of the recording may wait for its sink (a viewer that went
-/// away must not stall the recorder).
-const RRD_FLUSH_TIMEOUT: std::time::Duration = std::time::Duration::from_millis(200);
 
 fn main() -> eyre::Result<()> {
     trigait_node_log::init("recorder");
@@ -244,7 +241,9 @@ impl Recorder {
                 );
             }
         }
-        if let Err(e) = self.rec.flush_with_timeout(RRD_FLUSH_TIMEOUT) {
+        // Asks rerun's sink thread to write out what it holds, without waiting for it: a
+        // blocking flush (a disk or a viewer that is slow) would delay the poses behind it.
+        if let Err(e) = self.rec.flush_async() {
             warn!("flushing the recording: {e}");
         }
     }
