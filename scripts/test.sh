@@ -18,4 +18,7 @@ cargo fmt --all -- --check
 echo "==> release build of everything, linted by clippy (warnings are errors)"
 cargo build --release --workspace --all-targets
 echo "==> cargo test (release)"
-cargo test --workspace --release --no-fail-fast
+# One test at a time within each test binary: the graph tests measure latency, and a
+# neighbouring test's CPU work (an eval baseline, reading an .rrd back) stalled their graphs
+# by up to 0.8 s on 2 cores; timing-based node loop tests likewise.
+cargo test --workspace --release --no-fail-fast -- --test-threads=1
