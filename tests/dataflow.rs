@@ -378,6 +378,11 @@ fn killing_a_source_mid_run() {
 fn killing_the_recorder_mid_run_keeps_its_files() {
     let graph = std::fs::read_to_string(workspace().join("dataflow.yml")).unwrap();
     let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let graph = graph.replace(
+        "      OUTPUT_DIR: out\n",
+        "      OUTPUT_DIR: out\n      LIVE_UPDATE_SECS: \"0.5\"\n",
+    );
+    assert!(graph.contains("LIVE_UPDATE_SECS"));
     let (child, dir) = spawn_graph("kill-recorder", &graph, "10s");
     let victim = node_pid(&dir, "trigait-recorder-node", None);
     wait_until_streaming(&dir);

@@ -9,6 +9,7 @@
 //! | `RING_CAPACITY` | integer | `1000` | positions kept per joint (thesis: 1000) for the thesis text export |
 //! | `RECORD_FRAMES` | bool | `true` | also write the raw recording: `frames.csv` (every frame of every sensor, sensor-local and server time), `poses.csv` (every fused joint at its absolute instant) and `rig.yml` ([`crate::recording`]) |
 //! | `WARMUP_SECS` | seconds ≥ 0 | `1` | poses this soon after the first are warm-up: their latency is reported apart from the steady state (`summary.json`: `warmup`) |
+//! | `LIVE_UPDATE_SECS` | seconds, 0 or 0.1–60 | `0` (off) | bring `trajectory.csv`, `summary.json`, the raw recording and the `.rrd` up to date this often while the run goes, so a killed recorder loses at most that much; off by default because the writes run on the event loop and a disk busy writing back (after a large build) stalled the poses behind them by up to 0.4 s |
 //!
 //! Inputs: `fused_pose`, `frame_timing` (every raw frame `sync` received, joints included) and
 //! `ground_truth` (from the one simulated source that sends it; optional) — the same three
@@ -32,6 +33,8 @@ pub const RING_CAPACITY: &str = "RING_CAPACITY";
 pub const RECORD_FRAMES: &str = "RECORD_FRAMES";
 /// Env var: warm-up length.
 pub const WARMUP_SECS: &str = "WARMUP_SECS";
+/// Env var: how often the files are updated while the run goes.
+pub const LIVE_UPDATE_SECS: &str = "LIVE_UPDATE_SECS";
 
 const NODE: &str = "recorder";
 
@@ -50,6 +53,8 @@ pub struct Config {
     pub ring_capacity: usize,
     /// Warm-up after the first pose, ns ([`crate::stats::Stats::new`]).
     pub warmup_nanos: i64,
+    /// How often the files are updated while the run goes, ns (`None`: only at the end).
+    pub live_update_nanos: Option<i64>,
     /// Write the raw recording ([`crate::recording`]).
     pub record_frames: bool,
 }
@@ -95,6 +100,14 @@ impl Config {
             |s| (0.0..=3600.0).contains(&s),
             "seconds between 0 and 3600",
         )?;
+        let live_update_secs = env_number_where(
+            NODE,
+            &lookup,
+            LIVE_UPDATE_SECS,
+            0.0,
+            |s| s == 0.0 || (0.1..=60.0).contains(&s),
+            "0 (off) or seconds between 0.1 and 60",
+        )?;
         Ok(Config {
             out_dir,
             rrd,
@@ -102,6 +115,8 @@ impl Config {
             rig,
             ring_capacity,
             warmup_nanos: (warmup_secs * 1e9).round() as i64,
+            live_update_nanos: (live_update_secs > 0.0)
+                .then(|| (live_update_secs * 1e9).round() as i64),
             record_frames: env_flag(NODE, &lookup, RECORD_FRAMES, true)?,
         })
     }

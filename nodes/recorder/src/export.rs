@@ -3,7 +3,7 @@
 //! motion (CSV, TRC, C3D) through `trigait-motion`, so that the CLI reads it back.
 //!
 //! While the run goes, `trajectory.csv` is appended and `summary.json` rewritten
-//! ([`LiveFiles`], every [`crate::FLUSH_NANOS`]), so a recorder killed mid-run leaves both behind,
+//! ([`LiveFiles`], every `LIVE_UPDATE_SECS` when set), so a recorder killed mid-run leaves both behind,
 //! up to the last update; at the end every file is written whole.
 
 use std::collections::{BTreeMap, VecDeque};

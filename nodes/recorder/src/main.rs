@@ -1,6 +1,6 @@
 //! `recorder`: the end of the graph. Logs everything to rerun (an `.rrd` file by default, a
 //! live viewer when `RERUN_CONNECT` is set), keeps the thesis ring buffer, and writes into
-//! `OUTPUT_DIR` as it goes: every [`FLUSH_NANOS`] it appends the new frames to
+//! `OUTPUT_DIR` as it goes when asked (`LIVE_UPDATE_SECS`, [`config`]): it then appends the new frames to
 //! `trajectory.csv`, rewrites `summary.json` (`"complete": false`) and flushes the `.rrd`, so
 //! a recorder killed mid-run loses at most the last half second. When the graph ends it
 //! writes `trajectory.txt` (thesis format), `trajectory.csv`/`.trc`/`.c3d` (the run as a motion
@@ -26,10 +26,6 @@ use trigait_schema::{FrameTiming, FusedPose, GroundTruth, Message, ports};
 use crate::config::Config;
 use crate::export::{LiveFiles, Ring, write_summary, write_trajectory};
 use crate::stats::{Stats, Summary};
-
-/// How often the files are brought up to date while the run goes, ns: half the second a kill
-/// may lose, the other half for the poses still in the pipeline.
-pub const FLUSH_NANOS: i64 = 500_000_000;
 
 fn main() -> eyre::Result<()> {
     trigait_node_log::init("recorder");
@@ -141,7 +137,10 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
             _ => {}
         }
         count_drops(&mut r.stats, &mut events);
-        if now - r.last_update_nanos >= FLUSH_NANOS {
+        if config
+            .live_update_nanos
+            .is_some_and(|period| now - r.last_update_nanos >= period)
+        {
             r.update(&config, now);
         }
     }
