@@ -24,39 +24,6 @@ const WALKER_CADENCE: f64 = 105.0;
 /// Its speed: 0.70 m steps at 105 steps/min.
 const WALKER_SPEED_MPS: f64 = 0.70 * 105.0 / 60.0;
 
-/// Median |second difference| (mm) of the hip trajectories over consecutive aligned sets, read
-/// from the recorder's `trajectory.csv`. Hips move smoothly (≈ 1 m/s², ≈ 1 mm per frame² at
-/// 30 Hz), so this is mostly pose jitter; the median ignores the instantaneous turn at each end
-/// of the simulated walkway, which is a real (and equal) jump in both graphs.
-fn hip_jitter_mm(run: &Run) -> (f64, usize) {
-    use trigait_skeleton::Joint;
-    let clip = run.trajectory();
-    let hips = [Joint::HipLeft, Joint::HipRight];
-    assert!(
-        hips.iter().all(|j| clip.joints().contains(j)),
-        "hip_left and hip_right in trajectory.csv: {:?}",
-        clip.joints()
-    );
-    let mut d2 = Vec::new();
-    for joint in hips {
-        for f in 0..clip.frame_count().saturating_sub(2) {
-            let (Some(p), Some(a), Some(b)) = (
-                clip.position(f, joint),
-                clip.position(f + 1, joint),
-                clip.position(f + 2, joint),
-            ) else {
-                continue;
-            };
-            for k in 0..3 {
-                d2.push(((b[k] - 2.0 * a[k] + p[k]) * 1e3).abs());
-            }
-        }
-    }
-    assert!(d2.len() > 1000, "only {} second differences", d2.len());
-    d2.sort_by(f64::total_cmp);
-    (d2[d2.len() / 2], d2.len())
-}
-
 fn gait(s: &Value) -> &Value {
     let g = &s["gait"];
     assert!(g.is_object(), "summary.json has no gait section: {s:#}");
@@ -110,8 +77,8 @@ fn filtered_graph_runs_and_poses_reach_the_recorder() {
 fn filter_lowers_jitter_with_bounded_lag() {
     let plain = run_graph(PLAIN);
     let filtered = run_graph(FILTERED);
-    let (raw, n_raw) = hip_jitter_mm(&plain);
-    let (smooth, n_smooth) = hip_jitter_mm(&filtered);
+    let (raw, n_raw) = common::hip_jitter_mm(&plain.trajectory());
+    let (smooth, n_smooth) = common::hip_jitter_mm(&filtered.trajectory());
     let rmse = |r: &Run| f(&r.summary()["rmse_all_m"]);
     let (rmse_raw, rmse_smooth) = (rmse(&plain), rmse(&filtered));
     assert!(rmse_raw.is_finite() && rmse_smooth.is_finite());

@@ -26,7 +26,6 @@ use std::process::Command;
 
 use common::{Run, f};
 use serde_json::Value;
-use trigait_skeleton::Joint;
 
 const GRAPH: &str = "dataflows/python-stage.yml";
 /// The stage's default `NEIGHBOUR_WEIGHT` (the graph's `env:`).
@@ -175,28 +174,6 @@ fn run_with_raw_recorder(python: &std::path::Path) -> (Run, Run) {
     (stage, raw)
 }
 
-/// The hips' median |second difference| over consecutive instants, mm.
-fn hip_jitter_mm(clip: &trigait_skeleton::MotionClip) -> f64 {
-    let mut d2 = Vec::new();
-    for joint in [Joint::HipLeft, Joint::HipRight] {
-        for k in 0..clip.frame_count().saturating_sub(2) {
-            let (Some(p), Some(a), Some(b)) = (
-                clip.position(k, joint),
-                clip.position(k + 1, joint),
-                clip.position(k + 2, joint),
-            ) else {
-                continue;
-            };
-            for i in 0..3 {
-                d2.push(((b[i] - 2.0 * a[i] + p[i]) * 1e3).abs());
-            }
-        }
-    }
-    assert!(d2.len() > 1000, "only {} second differences", d2.len());
-    d2.sort_by(f64::total_cmp);
-    d2[d2.len() / 2]
-}
-
 /// The stage's Python unit tests (kernel, gaps, NaN, malformed messages, config) pass.
 #[test]
 fn python_stage_unit_tests() {
@@ -281,7 +258,10 @@ fn python_stage_between_trilaterate_and_recorder() {
         "{smoothed} smoothed, {passed} passed"
     );
 
-    let (jitter_raw, jitter_smooth) = (hip_jitter_mm(&rough), hip_jitter_mm(&smooth));
+    let (jitter_raw, jitter_smooth) = (
+        common::hip_jitter_mm(&rough).0,
+        common::hip_jitter_mm(&smooth).0,
+    );
     let rmse = |v: &Value| f(&v["rmse_all_m"]);
     let latency = |v: &Value| f(&v["latency_ms"]["p50"]);
     let added_latency = latency(&s) - latency(&r);

@@ -309,6 +309,39 @@ pub fn sync_sets_sent(log: &str) -> Option<u64> {
         .ok()
 }
 
+/// Median |second difference| (mm) of the hip trajectories over consecutive aligned sets, in a
+/// recorder's `trajectory.csv`; with the count of differences. Hips move smoothly (≈ 1 m/s², ≈
+/// 1 mm per frame² at 30 Hz), so this is mostly pose jitter; the median ignores the
+/// instantaneous turn at each end of the simulated walkway, which is a real (and equal) jump in
+/// both graphs.
+pub fn hip_jitter_mm(clip: &trigait_motion::MotionClip) -> (f64, usize) {
+    use trigait_skeleton::Joint;
+    let hips = [Joint::HipLeft, Joint::HipRight];
+    assert!(
+        hips.iter().all(|j| clip.joints().contains(j)),
+        "hip_left and hip_right in trajectory.csv: {:?}",
+        clip.joints()
+    );
+    let mut d2 = Vec::new();
+    for joint in hips {
+        for f in 0..clip.frame_count().saturating_sub(2) {
+            let (Some(p), Some(a), Some(b)) = (
+                clip.position(f, joint),
+                clip.position(f + 1, joint),
+                clip.position(f + 2, joint),
+            ) else {
+                continue;
+            };
+            for k in 0..3 {
+                d2.push(((b[k] - 2.0 * a[k] + p[k]) * 1e3).abs());
+            }
+        }
+    }
+    assert!(d2.len() > 1000, "only {} second differences", d2.len());
+    d2.sort_by(f64::total_cmp);
+    (d2[d2.len() / 2], d2.len())
+}
+
 pub fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }

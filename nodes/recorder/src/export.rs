@@ -223,8 +223,10 @@ impl LiveFiles {
             }
         };
         if !self.warned_new_joint
-            && let Ok(now) = trajectory.grid()
-            && let Some(new) = now.joints.iter().find(|j| !grid.joints.contains(j))
+            && let Some(new) = trajectory
+                .joints()
+                .iter()
+                .find(|j| !grid.joints.contains(j))
         {
             self.warned_new_joint = true;
             warn!(

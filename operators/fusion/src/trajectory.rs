@@ -43,6 +43,8 @@ pub enum TrajectoryError {
 pub struct Trajectory {
     /// `set_seq → (stamp_nanos, joints)`.
     poses: BTreeMap<u64, (i64, BTreeMap<Joint, Point3<f64>>)>,
+    /// Every joint any pose fused.
+    joints: std::collections::BTreeSet<Joint>,
 }
 
 impl Trajectory {
@@ -55,7 +57,14 @@ impl Trajectory {
     /// Adds the fused joints of `pose` (a repeated set is replaced).
     pub fn push(&mut self, pose: &FusedPose) {
         let joints = pose.joints.iter().map(|(j, f)| (*j, f.position)).collect();
+        self.joints.extend(pose.joints.keys().copied());
         self.poses.insert(pose.set_seq, (pose.stamp_nanos, joints));
+    }
+
+    /// Every joint any pose fused.
+    #[must_use]
+    pub fn joints(&self) -> &std::collections::BTreeSet<Joint> {
+        &self.joints
     }
 
     /// Poses held.
@@ -98,13 +107,8 @@ impl Trajectory {
                 poses: self.poses.len(),
             });
         };
-        let mut joints: Vec<Joint> = self
-            .poses
-            .values()
-            .flat_map(|(_, j)| j.keys().copied())
-            .collect();
+        let mut joints: Vec<Joint> = self.joints.iter().copied().collect();
         joints.sort_by_key(|j| j.index());
-        joints.dedup();
         Ok(FrameGrid {
             t0_nanos: *t0_nanos,
             period_nanos,

@@ -78,32 +78,7 @@ pub struct Stat {
 
 impl Stat {
     fn of(strides: &[Stride], value: impl Fn(&Stride) -> Option<f64>) -> Self {
-        let all: Vec<f64> = strides.iter().filter_map(&value).collect();
-        let side = |foot: Foot| -> Option<f64> {
-            let v: Vec<f64> = strides
-                .iter()
-                .filter(|s| s.foot == foot)
-                .filter_map(&value)
-                .collect();
-            mean_sd(&v).0
-        };
-        let (mean, sd) = mean_sd(&all);
-        let (left, right) = (side(Foot::Left), side(Foot::Right));
-        let asymmetry_pct = match (left, right) {
-            (Some(l), Some(r)) if (l + r).abs() > 1e-12 => {
-                Some((l - r).abs() / ((l + r) / 2.0).abs() * 100.0)
-            }
-            _ => None,
-        };
-        Self {
-            n: all.len(),
-            mean,
-            sd,
-            left,
-            right,
-            asymmetry_pct,
-            from_steps: false,
-        }
+        Self::of_footed(strides.iter().map(|s| (s.foot, value(s))), false)
     }
 
     /// `self`, or when it has no value, the same figure from single steps.
@@ -111,12 +86,18 @@ impl Stat {
         if self.n > 0 {
             return self;
         }
-        let all: Vec<f64> = steps.iter().filter_map(&value).collect();
-        let side = |foot: Foot| {
-            let v: Vec<f64> = steps
+        Self::of_footed(steps.iter().map(|s| (s.foot, value(s))), true)
+    }
+
+    /// Mean, SD, per-foot means and asymmetry of the values present, each with its foot.
+    fn of_footed(samples: impl Iterator<Item = (Foot, Option<f64>)>, from_steps: bool) -> Self {
+        let samples: Vec<(Foot, f64)> = samples.filter_map(|(f, v)| Some((f, v?))).collect();
+        let all: Vec<f64> = samples.iter().map(|(_, v)| *v).collect();
+        let side = |foot: Foot| -> Option<f64> {
+            let v: Vec<f64> = samples
                 .iter()
-                .filter(|s| s.foot == foot)
-                .filter_map(&value)
+                .filter(|(f, _)| *f == foot)
+                .map(|(_, v)| *v)
                 .collect();
             mean_sd(&v).0
         };
@@ -135,7 +116,7 @@ impl Stat {
             left,
             right,
             asymmetry_pct,
-            from_steps: true,
+            from_steps,
         }
     }
 }

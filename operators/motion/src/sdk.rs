@@ -207,6 +207,19 @@ pub fn sdk_clip(
         }
         *slot = Some(world_row(frame, drop_inferred, &mut dropped, &mut kept));
     }
+    finish_clip(name, rate_hz, joints, rows, repeated, (dropped, kept))
+}
+
+/// The clip of the placed rows (an empty slot is a frame with every joint missing) and the
+/// counts of what placing them found.
+fn finish_clip(
+    name: &str,
+    rate_hz: f64,
+    joints: Vec<Joint>,
+    rows: Vec<Option<Vec<Option<Point3<f64>>>>>,
+    repeated: usize,
+    (dropped, kept): (usize, usize),
+) -> Result<SdkClip> {
     let missing = rows.iter().filter(|r| r.is_none()).count();
     let rows = rows
         .into_iter()
@@ -288,18 +301,7 @@ fn timed_clip(
         };
         rows[free] = Some(world_row(frame, drop_inferred, &mut dropped, &mut kept));
     }
-    let missing = rows.iter().filter(|r| r.is_none()).count();
-    let rows = rows
-        .into_iter()
-        .map(|r| r.unwrap_or_else(|| vec![None; joints.len()]))
-        .collect();
-    Ok(SdkClip {
-        clip: MotionClip::new(name, rate_hz, joints, rows)?,
-        repeated_frames: repeated,
-        missing_frames: missing,
-        inferred_dropped: dropped,
-        inferred_kept: kept,
-    })
+    finish_clip(name, rate_hz, joints, rows, repeated, (dropped, kept))
 }
 
 #[cfg(test)]
