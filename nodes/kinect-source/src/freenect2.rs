@@ -223,7 +223,7 @@ fn real_driver() -> eyre::Result<Box<dyn Driver>> {
 fn real_driver() -> eyre::Result<Box<dyn Driver>> {
     bail!(
         "{NODE}: {}=freenect2, but this binary was not built with freenect2 \
-         (rebuild with `cargo build --release -p trigait-kinect-source-node --features freenect2`)",
+         (rebuild with `cargo build --release --workspace --features trigait-kinect-source-node/freenect2`; see the README)",
         config::BACKEND
     )
 }
@@ -808,6 +808,40 @@ mod tests {
             "largest jump {jump} at {at} of {seqs:?}, {summary:?}"
         );
         assert!(seqs.len() - at >= 5, "{seqs:?}, {summary:?}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// The node over the real libfreenect2 on a machine with no Kinect: degraded (absent) at
+    /// once, no frames, and it still stops within 1 s of the stop.
+    #[cfg(feature = "freenect2")]
+    #[test]
+    fn real_library_without_a_kinect_is_degraded_and_stops() {
+        let mut driver = real_driver().unwrap();
+        if !driver.enumerate().unwrap().serials.is_empty() {
+            eprintln!("skipping: a Kinect v2 is connected");
+            return;
+        }
+        let dir = scratch("real");
+        let (node, events, _rx) = init_node(
+            events(0.6, &dir, &[0.3]),
+            TestingOptions {
+                skip_output_time_offsets: true,
+            },
+        );
+        let c = f2(&[("FREENECT2_SERIAL", "000000000000")]).unwrap();
+        let t = Instant::now();
+        let summary = run(&config(), &c, driver, node, events).unwrap();
+        let took = t.elapsed();
+        assert!(took < Duration::from_millis(1600), "{took:?}");
+        assert_eq!((summary.frames_sent, summary.ntp_answered), (0, 1));
+        assert!(
+            matches!(
+                summary.states.first(),
+                Some(State::Degraded(Degraded::Absent(_)))
+            ),
+            "{summary:?}"
+        );
+        assert!(!summary.abandoned_device);
         std::fs::remove_dir_all(&dir).ok();
     }
 }
