@@ -811,6 +811,88 @@ mod tests {
         std::fs::remove_dir_all(&dir).ok();
     }
 
+    /// A 2 s stall: NTP requests during it are still answered at once (on the host clock,
+    /// which the device does not hold up), the sensor is reported stalled and then streaming,
+    /// the frames it captured meanwhile are counted lost and skipped in the sequence, and the
+    /// stamps after the stall are still on the host clock: the stamp gap across the stall is
+    /// the sequence gap times the frame period.
+    #[test]
+    fn two_second_stall_counts_lost_frames_and_ntp_goes_on() {
+        let dir = scratch("stall");
+        let requests = [0.2, 0.9, 1.6, 2.3, 2.8];
+        let (node, events, mut rx) = init_node(
+            events(3.1, &dir, &requests),
+            TestingOptions {
+                skip_output_time_offsets: true,
+            },
+        );
+        let kinect = FakeKinect::new("S4", wall()).with(Fault::Stall {
+            at: Duration::from_millis(400),
+            length: Duration::from_secs(2),
+        });
+        let c = f2(&[("FREENECT2_SERIAL", "S4")]).unwrap();
+        let summary = run(
+            &config(),
+            &c,
+            Box::new(FakeDriver::new(vec![kinect])),
+            node,
+            events,
+        )
+        .unwrap();
+        assert_eq!(summary.ntp_answered, requests.len() as u64, "{summary:?}");
+        assert_eq!(
+            summary.states,
+            [
+                State::Streaming,
+                State::Degraded(Degraded::Stalled),
+                State::Streaming
+            ]
+        );
+        // 2 s / 33.25 ms = 60.2 frames captured but not delivered.
+        assert!(
+            (59..=62).contains(&summary.capture.lost_in_sequence),
+            "{summary:?}"
+        );
+        let outputs = drain_outputs(&mut rx);
+        for reply in trigait_node_testing::output_arrays(&outputs, "ntp_reply") {
+            let r = NtpExchange::decode(reply.as_ref()).unwrap();
+            let (t2, t3) = (r.t2_nanos.unwrap(), r.t3_nanos.unwrap());
+            // Never held up by the device; at most by the few frames queued before it
+            // (each of which dora's testing daemon turns into JSON).
+            assert!((0..500_000_000).contains(&(t3 - t2)), "{r:?}");
+        }
+        let depth: Vec<(u64, i64)> = outputs
+            .iter()
+            .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some("depth"))
+            .map(|o| {
+                let row = &o["data"][0];
+                (
+                    row["seq"].as_u64().unwrap(),
+                    row["local_stamp_nanos"].as_i64().unwrap(),
+                )
+            })
+            .collect();
+        let (before, after) = depth
+            .windows(2)
+            .map(|w| (w[0], w[1]))
+            .max_by_key(|(a, b)| b.0 - a.0)
+            .unwrap();
+        let frames = after.0 - before.0;
+        assert!(frames > summary.capture.lost_in_sequence, "{depth:?}");
+        let period = 33_250_000_i64;
+        let expected = i64::try_from(frames).unwrap() * period;
+        assert!(
+            (after.1 - before.1 - expected).abs() < period / 2,
+            "{frames} frames apart, stamps {} ms apart",
+            (after.1 - before.1) / 1_000_000
+        );
+        assert!(
+            depth.iter().filter(|d| d.0 >= after.0).count() >= 3,
+            "{depth:?}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
     /// The node over the real libfreenect2 on a machine with no Kinect: degraded (absent) at
     /// once, no frames, and it still stops within 1 s of the stop.
     #[cfg(feature = "freenect2")]
