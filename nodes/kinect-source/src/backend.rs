@@ -101,7 +101,7 @@ impl Source {
                 }
                 bail!(
                     "kinect-source: {}=freenect2, but this binary was not built with freenect2 \
-                     (rebuild with `cargo build --release -p trigait-kinect-source-node --features freenect2`)",
+                     (rebuild with `cargo build --release --workspace --features trigait-kinect-source-node/freenect2`; see the README)",
                     config::BACKEND
                 )
             }
