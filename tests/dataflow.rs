@@ -415,6 +415,9 @@ fn killing_the_recorder_mid_run_keeps_its_files() {
     let temporal = run.rrd().temporal;
     let fused = temporal.get("world/fused").copied().unwrap_or(0);
     let due = ((killed_at - 1_000_000_000 - first) as f64 / (1e9 / 30.0)).floor() as u64 + 1;
+    eprintln!(
+        "killed recorder: summary.json ends {lost_secs:.3} s, trajectory.csv {csv_lost_secs:.3} s before the kill; {fused} fused rows in the .rrd, {due} due"
+    );
     assert!(
         fused >= due,
         "{fused} fused rows in the .rrd, {due} poses were fused by 1 s before the kill"
