@@ -82,6 +82,8 @@ struct Recorder {
     lines: Option<recording::Lines>,
     writer: Writer,
     last_update_nanos: i64,
+    /// The longest a live update took on the event loop.
+    longest_update: std::time::Duration,
 }
 
 /// The event loop; returns the summary it wrote.
@@ -113,6 +115,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
         .context("recorder")?,
         rec,
         last_update_nanos: now_nanos(),
+        longest_update: std::time::Duration::ZERO,
     };
     let stamp = RigStamp::new("recorder", &config.rig);
     let mut rerun_errors = 0_u64;
@@ -233,6 +236,7 @@ impl Recorder {
     /// `trajectory.csv`, the new lines of the raw recording, the summary so far (its
     /// percentiles are sorted on the thread) and the new samples. Never waits ([`writer`]).
     fn update(&mut self, now: i64) {
+        let started = std::time::Instant::now();
         self.last_update_nanos = now;
         let (summary, samples) = self.stats.live(now);
         self.writer.offer(Update {
@@ -241,6 +245,7 @@ impl Recorder {
             samples,
             summary: Some(summary),
         });
+        self.longest_update = self.longest_update.max(started.elapsed());
     }
 
     /// Writes the exports and the final `summary.json`, flushes the recording.
@@ -251,13 +256,23 @@ impl Recorder {
             lines: self.lines.take().unwrap_or_default(),
             ..Update::default()
         };
-        let failed = self
+        let writes = self
             .writer
             .finish(last)
             .context("recorder: writing the raw recording")?;
-        if failed > 1 {
-            warn!("{failed} updates of the files while the run went failed");
+        if writes.failed > 1 {
+            warn!(
+                "{} updates of the files while the run went failed",
+                writes.failed
+            );
         }
+        info!(
+            "{} updates written by the writer thread (the longest in {:.1} ms), {} merged into a later one while it was behind; the event loop spent at most {:.3} ms handing one over",
+            writes.written,
+            writes.longest_write.as_secs_f64() * 1e3,
+            writes.coalesced,
+            self.longest_update.as_secs_f64() * 1e3
+        );
         let mut summary = self.stats.summary(now_nanos(), true);
         let (gait_report, gait_logged) = self.gait.finish(&self.rec);
         summary.gait = Some(gait_report);

@@ -146,10 +146,23 @@ pub struct Files {
     pub dir: std::path::PathBuf,
 }
 
+/// How the thread's updates went.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Finished {
+    /// Updates that failed to write.
+    pub failed: u64,
+    /// Updates merged into a later one because the thread was behind ([`Handoff::coalesced`]).
+    pub coalesced: u64,
+    /// Updates written.
+    pub written: u64,
+    /// The longest an update took on the thread (the `.rrd` flush included).
+    pub longest_write: Duration,
+}
+
 /// The writer thread, seen from the event loop.
 pub struct Writer {
     handoff: Handoff<Update>,
-    thread: std::thread::JoinHandle<(u64, eyre::Result<()>)>,
+    thread: std::thread::JoinHandle<(Finished, eyre::Result<()>)>,
     gone_reported: bool,
 }
 
@@ -185,33 +198,31 @@ impl Writer {
     /// # Errors
     /// When the last update could not be written, or the thread stopped before it (it
     /// panicked): the raw recording then lacks what it had not appended.
-    pub fn finish(self, last: Update) -> eyre::Result<u64> {
+    pub fn finish(self, last: Update) -> eyre::Result<Finished> {
         let coalesced = self.handoff.coalesced();
-        if coalesced > 0 {
-            warn!(
-                "{coalesced} updates of the files waited for the disk and were merged into later ones"
-            );
-        }
         let handed = self.handoff.finish(last);
-        let (failed, last) = self
+        let (mut finished, last) = self
             .thread
             .join()
             .map_err(|_| eyre::eyre!("the writer thread panicked"))?;
         handed.context("the writer thread stopped before the end")?;
         last?;
-        Ok(failed)
+        finished.coalesced = coalesced;
+        Ok(finished)
     }
 }
 
 /// The thread: applies each update as it comes, until the event loop closes the channel.
-/// Returns how many updates failed to write (the first failure is logged, later ones
-/// counted) and the last one's result.
-fn write_loop(mut files: Files, rx: &Receiver<Update>) -> (u64, eyre::Result<()>) {
+/// Returns how the updates went (the first failure is logged, later ones counted) and the
+/// last one's result.
+fn write_loop(mut files: Files, rx: &Receiver<Update>) -> (Finished, eyre::Result<()>) {
     let mut samples = Samples::default();
     let mut unwritten = Update::default();
-    let (mut failed, mut unflushed) = (0_u64, 0_u64);
+    let mut finished = Finished::default();
+    let mut unflushed = 0_u64;
     let mut last = Ok(());
     while let Ok(update) = rx.recv() {
+        let started = std::time::Instant::now();
         unwritten.absorb(update);
         // The recording first, so that the summary never claims more than it holds. A viewer
         // that is not there fails this without waiting: warned once, not a failed update.
@@ -222,16 +233,18 @@ fn write_loop(mut files: Files, rx: &Receiver<Update>) -> (u64, eyre::Result<()>
             }
         }
         last = write_update(&mut files, &mut unwritten, &mut samples);
+        finished.written += 1;
+        finished.longest_write = finished.longest_write.max(started.elapsed());
         if let Err(e) = &last {
-            failed += 1;
-            if failed == 1 {
+            finished.failed += 1;
+            if finished.failed == 1 {
                 error!(
                     "recorder: updating the files while the run goes failed (further failures counted): {e:#}"
                 );
             }
         }
     }
-    (failed, last)
+    (finished, last)
 }
 
 /// Writes `update` (what it still holds after a failure is retried with the next): the CSV
