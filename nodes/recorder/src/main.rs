@@ -3,9 +3,10 @@
 //! `OUTPUT_DIR` as it goes (every `LIVE_UPDATE_SECS`, 0.5 s by default, [`config`]): its writer
 //! thread ([`writer`]) appends the new frames to `trajectory.csv` and the raw recording,
 //! rewrites `summary.json` (`"complete": false`) and flushes the `.rrd`, so a recorder killed
-//! mid-run loses at most the last second, and the event loop never waits for the disk. When the graph ends it
-//! writes `trajectory.txt` (thesis format), `trajectory.csv`/`.trc`/`.c3d` (the run as a motion
-//! the CLI reads) and the final `summary.json` whole.
+//! mid-run loses at most the last second while the disk keeps up, and the event loop never
+//! waits for the disk. When the graph ends it writes `trajectory.txt` (thesis format),
+//! `trajectory.csv`/`.trc`/`.c3d` (the run as a motion the CLI reads) and the final
+//! `summary.json` whole.
 //! Configuration: [`config`]; entity paths: [`viz`].
 
 mod config;
