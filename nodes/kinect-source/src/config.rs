@@ -350,7 +350,6 @@ impl Config {
         Ok(Config {
             sensor_id,
             rig,
-            backend,
             all_joints,
             seed: env_value(NODE, &lookup, SEED, |_| true, "a whole number")?.unwrap_or(1),
             frame_rate_hz,
@@ -365,7 +364,15 @@ impl Config {
                 .is_some()
                 .then(|| env_flag(NODE, &lookup, GROUND_TRUTH, false))
                 .transpose()?,
-            depth: crate::depth::DepthConfig::from_lookup(&lookup)?,
+            depth: match (&backend, crate::depth::DepthConfig::from_lookup(&lookup)?) {
+                (Backend::BodyDepth { .. }, Some(_)) => bail!(
+                    "{NODE}: {}=body-depth sends its depth frames on `depth` itself; {} (the lab-target depth stream) cannot be set with it",
+                    BACKEND,
+                    crate::depth::DEPTH_RATE_HZ
+                ),
+                (_, depth) => depth,
+            },
+            backend,
         })
     }
 

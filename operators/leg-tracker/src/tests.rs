@@ -101,6 +101,14 @@ fn walker_on_the_thesis_rig() {
             }
         }
         let medians: Vec<f64> = errors.iter().map(|e| median(e.clone())).collect();
+        let rms: Vec<f64> = errors
+            .iter()
+            .map(|e| (e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64).sqrt())
+            .collect();
+        eprintln!(
+            "{}: RMS error hip {:.3} knee {:.3} ankle {:.3} m",
+            sensor.id, rms[0], rms[1], rms[2]
+        );
         eprintln!(
             "{}: median error hip {:.3} knee {:.3} ankle {:.3} m; {reported} joints reported of {} ({tracked} tracked); {swaps} swapped frames",
             sensor.id,
