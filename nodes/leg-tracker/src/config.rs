@@ -6,6 +6,7 @@
 //! | `RIG` | `thesis`, `ring-N` or a YAML path | `thesis` | where the sensor stands: its pose gives the floor |
 //! | `FLOOR` | `rig` or `fit` | `rig` | the floor from the sensor's pose in the rig, or a plane fitted to the depth (a sensor whose pose is not known well) |
 //! | `MIRRORED` | bool | `false` | the images are mirrored (the column grows to the sensor's left, as libfreenect2 and the Kinect SDK deliver them); the simulated body depth is not |
+//! | `RERUN` | `off` (or any false flag word), `rrd`, a `.rrd` path or a `rerun+http://…/proxy` url | `off` | for debugging, log every frame's person mask and fitted legs to rerun (`rrd` = `out/legs-<sensor>.rrd`; entities `legs/<sensor>/…`) |
 //!
 //! Ports: input `depth` (`depth_frame`, from a source's `depth` output), output `frame` (the
 //! `skeleton_frame` of the same sensor, seq and sensor-clock stamp, with the depth frame's
@@ -14,8 +15,9 @@
 use std::str::FromStr;
 
 use eyre::{bail, eyre};
+use trigait_depth_rerun::Sink;
 use trigait_leg_tracker::TrackerConfig;
-use trigait_node_config::{env_flag, env_parsed, env_rig};
+use trigait_node_config::{env_flag, env_parsed, env_rig, flag_word};
 use trigait_rig::Rig;
 
 /// Env var: sensor id.
@@ -24,6 +26,8 @@ pub const SENSOR_ID: &str = "SENSOR_ID";
 pub const FLOOR: &str = "FLOOR";
 /// Env var: mirrored images.
 pub const MIRRORED: &str = "MIRRORED";
+/// Env var: rerun sink for debugging.
+pub const RERUN: &str = "RERUN";
 
 const NODE: &str = "leg-tracker";
 
@@ -56,6 +60,8 @@ pub struct Config {
     pub rig: Rig,
     /// The tracker's configuration for this sensor.
     pub tracker: TrackerConfig,
+    /// Where the debugging output goes, if anywhere.
+    pub rerun: Option<Sink>,
 }
 
 impl Config {
@@ -93,10 +99,24 @@ impl Config {
             FloorSource::Rig => {}
             FloorSource::Fit => tracker.floor = None,
         }
+        let rerun = match lookup(RERUN).as_deref().map(str::trim) {
+            None | Some("" | "off") => None,
+            Some(spec) => match flag_word(spec) {
+                Some(false) => None,
+                Some(true) => bail!(
+                    "{NODE}: {RERUN}={spec:?} is invalid: expected off, false, rrd, a .rrd path or a rerun+http:// url"
+                ),
+                None => Some(Sink::from_spec(
+                    spec,
+                    &std::path::Path::new("out").join(format!("legs-{sensor_id}.rrd")),
+                )),
+            },
+        };
         Ok(Self {
             sensor_id,
             rig,
             tracker,
+            rerun,
         })
     }
 }

@@ -7,6 +7,8 @@
 //! end of stream, send instant) passed on, so `sync`, `trilaterate` and the recorder are
 //! unchanged. A frame in which nobody is tracked goes out without joints, as the SDK's would.
 //! A malformed message, a frame of another sensor or of the wrong size is counted and skipped.
+//! With `RERUN`, each frame's person mask and fitted legs are logged for debugging
+//! ([`trigait_depth_rerun::log_legs`]).
 //! Configuration: [`config`].
 
 mod config;
@@ -20,9 +22,10 @@ use dora_node_api::{DoraNode, Event, EventStream};
 use eyre::Context;
 use tracing::{info, warn};
 use trigait_depth::{DepthFrame, HEIGHT, WIDTH};
-use trigait_leg_tracker::{LegTracker, Status};
+use trigait_depth_rerun::RecordingStream;
+use trigait_leg_tracker::{LegTracker, Status, TrackedFrame};
 use trigait_schema::{DepthFrameMessage, Message, SkeletonFrameMessage, ports};
-use trigait_skeleton::{SkeletonFrame, TrackingState};
+use trigait_skeleton::{Joint, SkeletonFrame, TrackingState};
 
 use crate::config::Config;
 
@@ -88,7 +91,46 @@ pub fn status_name(status: Status) -> &'static str {
     }
 }
 
-/// Tracks one `depth_frame` of `sensor_id`: the skeleton frame to send and the outcome.
+/// Logs `tracked` (frame `seq`) to the debugging sink: the person mask and the fitted legs.
+fn log_debug(
+    rec: &RecordingStream,
+    sensor: &str,
+    seq: u64,
+    tracked: &TrackedFrame,
+) -> Result<(), trigait_depth_rerun::RecordingStreamError> {
+    let f32x3 = |p: &nalgebra::Point3<f64>| [p.x as f32, p.y as f32, p.z as f32];
+    let joints: Vec<(String, [f32; 3])> = tracked
+        .joints
+        .iter()
+        .map(|j| (format!("{:?}", j.joint), f32x3(&j.position_in_kinect)))
+        .collect();
+    let chains: Vec<Vec<[f32; 3]>> = [
+        [
+            Joint::HipLeft,
+            Joint::KneeLeft,
+            Joint::AnkleLeft,
+            Joint::FootLeft,
+        ],
+        [
+            Joint::HipRight,
+            Joint::KneeRight,
+            Joint::AnkleRight,
+            Joint::FootRight,
+        ],
+    ]
+    .iter()
+    .map(|chain| {
+        chain
+            .iter()
+            .filter_map(|j| tracked.joint(*j).map(|t| f32x3(&t.position_in_kinect)))
+            .collect()
+    })
+    .collect();
+    trigait_depth_rerun::log_legs(rec, sensor, seq, &tracked.person_mask, &joints, &chains)
+}
+
+/// Tracks one `depth_frame` of `sensor_id`: the skeleton frame to send and the outcome; with
+/// `rec`, logs what the tracker made of it.
 ///
 /// # Errors
 /// [`Refused`] for a message that is not a 512×424 depth frame of `sensor_id`.
@@ -96,6 +138,7 @@ pub fn track_message(
     tracker: &mut LegTracker,
     sensor_id: &str,
     array: &dyn trigait_schema::Array,
+    rec: Option<&RecordingStream>,
 ) -> Result<(SkeletonFrame, Status), Refused> {
     let message =
         DepthFrameMessage::decode(array).map_err(|e| Refused::Malformed(e.to_string()))?;
@@ -108,6 +151,11 @@ pub fn track_message(
     let depth = DepthFrame::from_mm(message.depth_mm)
         .map_err(|_| Refused::WrongSize(message.width, message.height))?;
     let tracked = tracker.track(&depth);
+    if let Some(rec) = rec
+        && let Err(e) = log_debug(rec, sensor_id, message.seq, &tracked)
+    {
+        warn!("rerun: {e}");
+    }
     let frame = SkeletonFrame {
         sensor_id: message.sensor_id,
         seq: message.seq,
@@ -119,6 +167,12 @@ pub fn track_message(
 
 /// The event loop.
 pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre::Result<Counters> {
+    let rec = config
+        .rerun
+        .as_ref()
+        .map(|sink| trigait_depth_rerun::open("trigait-legs", sink))
+        .transpose()
+        .map_err(|e| eyre::eyre!("leg-tracker: {}: {e}", config::RERUN))?;
     let mut tracker =
         LegTracker::new(config.tracker).context("leg-tracker: building the tracker")?;
     let frame_out = DataId::from(ports::FRAME.to_owned());
@@ -132,6 +186,7 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                         &mut tracker,
                         &config.sensor_id,
                         data.as_array().as_ref(),
+                        rec.as_ref(),
                     ) {
                         Ok(out) => out,
                         Err(why) => {

@@ -29,6 +29,12 @@ fn config_defaults() {
     ]))
     .unwrap();
     assert!(c.tracker.floor.is_none() && c.tracker.camera.mirrored);
+    assert!(c.rerun.is_none());
+    let c = Config::from_lookup(lookup(&[("SENSOR_ID", "k3"), ("RERUN", "rrd")])).unwrap();
+    assert_eq!(
+        c.rerun,
+        Some(trigait_depth_rerun::Sink::File("out/legs-k3.rrd".into()))
+    );
     assert_eq!("rig".parse(), Ok(FloorSource::Rig));
 }
 
@@ -50,6 +56,7 @@ fn config_errors_name_node_key_and_value() {
     for (key, value) in [
         ("FLOOR", "ceiling"),
         ("MIRRORED", "maybe"),
+        ("RERUN", "yes"),
         ("RIG", "/nonexistent/rig.yml"),
     ] {
         let text =
@@ -69,15 +76,21 @@ fn config_errors_name_node_key_and_value() {
 /// 90 % within 20 cm while it still learns the lengths) of the rendered joint centres: a check
 /// of the wiring (a mixed-up seq, sensor or camera convention is metres off). Measured: median
 /// 3.0 cm, 90th percentile 12.8 cm. The accuracy after learning is the tracker crate's test.
+/// With `RERUN` set, the masks and fitted legs go to an `.rrd`.
 #[test]
 fn depth_frames_in_skeleton_frames_out() {
-    let config = Config::from_lookup(lookup(&[("SENSOR_ID", "k1")])).unwrap();
+    let dir = scratch_dir("leg-tracker-loop");
+    let rrd = dir.join("legs.rrd");
+    let config = Config::from_lookup(lookup(&[
+        ("SENSOR_ID", "k1"),
+        ("RERUN", rrd.to_str().unwrap()),
+    ]))
+    .unwrap();
     let pose = config.rig.sensors[0].world_from_kinect;
     let clip = trigait_motion::walker(&trigait_motion::WalkerParams::default(), 3.0, 100.0)
         .unwrap()
         .placed_on_walkway();
     let mut renderer = Renderer::new(RenderParams::default(), &pose, &Room::default()).unwrap();
-    let dir = scratch_dir("leg-tracker-loop");
     let mut events = Vec::new();
     let mut truths = Vec::new();
     let message = |seq: u64, sensor: &str, w: u32, h: u32, depth_mm: Vec<u16>| DepthFrameMessage {
@@ -176,6 +189,8 @@ fn depth_frames_in_skeleton_frames_out() {
             errors.push((sample.position_in_kinect - truth).norm());
         }
     }
+    // With RERUN set, the masks and fitted legs were logged.
+    assert!(std::fs::metadata(&rrd).unwrap().len() > 10_000);
     errors.sort_by(f64::total_cmp);
     let median = errors[errors.len() / 2];
     let worst = errors[errors.len() * 9 / 10];
