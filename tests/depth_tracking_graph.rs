@@ -28,7 +28,7 @@ fn run_for_12s(file: &str) -> Run {
 /// fused for most of the run.
 ///
 /// The goal is 1.5× the skeleton graph's RMSE; it is not met. Measured on the loaded 2-core
-/// machine (load average 6), three runs: 0.105–0.129 m against 0.0221–0.0228 m, 4.8–5.7×. Two causes, both
+/// machine (load average 6), four runs: 0.105–0.129 m against 0.0195–0.0228 m, 4.8–5.9×. Two causes, both
 /// measured: the tracker's error has heavy tails (its crate test: medians 3–4 cm per sensor,
 /// but RMS hip 5–10 cm, knee 5–7 cm, ankle 14–17 cm, from frames where a leg is hidden or the
 /// lower legs cross), and the host cannot render and track three sensors at 30 Hz (2.5 cores):
