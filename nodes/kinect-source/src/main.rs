@@ -1,5 +1,6 @@
 //! `kinect-source`: one Kinect v2 sensor in the dataflow. Sends a `skeleton_frame` per capture
-//! on `frame` (sensor clock), answers `ntp_request`s addressed to it with its own clock on
+//! on `frame` (sensor clock; with `BACKEND: body-depth` a `depth_frame` on `depth` instead,
+//! [`body_depth`]), answers `ntp_request`s addressed to it with its own clock on
 //! `ntp_reply`, and — when simulated, from the one source of the graph that sends it (by default
 //! the rig's first sensor) — the world-frame ground truth on `ground_truth`.
 //! Configuration: [`config`].
