@@ -145,7 +145,7 @@ fn run_recording(args: &Args, dir: &std::path::Path) -> eyre::Result<()> {
         write_rig(path, &format!("{name}-calibrated"), &calibration)?;
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&calibration)?);
+        crate::stdout::print_json(&calibration)?;
     } else {
         let mut out = String::new();
         let _ = writeln!(
@@ -159,7 +159,7 @@ fn run_recording(args: &Args, dir: &std::path::Path) -> eyre::Result<()> {
         );
         render_sensors(&mut out, &calibration);
         render_findings(&mut out, &calibration);
-        print!("{out}");
+        crate::stdout::print(&out)?;
     }
     Ok(())
 }
@@ -202,12 +202,9 @@ pub fn run(args: &Args) -> eyre::Result<()> {
         )?;
     }
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&JsonReport::new(&outcome))?
-        );
+        crate::stdout::print_json(&JsonReport::new(&outcome))?;
     } else {
-        print!("{}", render(&outcome));
+        crate::stdout::print(&render(&outcome))?;
     }
     Ok(())
 }

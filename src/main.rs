@@ -18,6 +18,7 @@ mod export;
 mod gait;
 mod ranges;
 mod report;
+mod stdout;
 
 /// Markerless 3-D gait tracking from several Kinect v2 depth sensors.
 #[derive(Debug, Parser)]
