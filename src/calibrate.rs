@@ -76,39 +76,12 @@ fn parse_perturb(s: &str) -> Result<(f64, f64), String> {
     Ok((m, deg))
 }
 
-/// Per-sensor joint tracks of a recording: every synchronised frame at its server stamp,
-/// seconds after the recording's first; frames recorded before their sensor was synchronised
-/// are left out (they have no common time).
-fn tracks_of(frames: &[trigait_schema::FrameTiming]) -> Vec<trigait_calibration::SensorTrack> {
-    let origin = frames
-        .iter()
-        .filter_map(|f| f.server_stamp_nanos)
-        .min()
-        .unwrap_or(0);
-    trigait_recording::sensor_ids(frames)
-        .into_iter()
-        .map(|id| trigait_calibration::SensorTrack {
-            frames: frames
-                .iter()
-                .filter(|f| f.sensor_id == id)
-                .filter_map(|f| {
-                    Some(trigait_calibration::TrackFrame {
-                        t_secs: (f.server_stamp_nanos? - origin) as f64 * 1e-9,
-                        joints: f.joints.clone(),
-                    })
-                })
-                .collect(),
-            id,
-        })
-        .collect()
-}
-
 /// `trigait calibrate --recording DIR`.
 fn run_recording(args: &Args, dir: &std::path::Path) -> eyre::Result<()> {
     let frames_path = dir.join(trigait_recording::FRAMES_FILE);
     let frames = trigait_recording::read_frames(&frames_path)
         .wrap_err_with(|| format!("reading the recording {}", dir.display()))?;
-    let tracks = tracks_of(&frames);
+    let tracks = trigait_recording::calibration_tracks(&frames);
     let start = match (&args.start_rig, args.init.as_str()) {
         (_, "data") => None,
         (Some(spec), _) => Some(
@@ -169,12 +142,8 @@ fn write_rig(
     name: &str,
     calibration: &trigait_calibration::Calibration,
 ) -> eyre::Result<()> {
-    let file = trigait_calibration::rig_file(name, calibration);
-    let text = serde_yaml::to_string(&file).wrap_err("serialising the rig")?;
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).wrap_err_with(|| format!("creating {}", dir.display()))?;
-    }
-    std::fs::write(path, text).wrap_err_with(|| format!("writing {}", path.display()))
+    trigait_recording::write_calibrated_rig(path, name, calibration)
+        .wrap_err("writing the calibrated rig")
 }
 
 /// Runs `trigait calibrate`.

@@ -318,6 +318,57 @@ pub fn read_poses(path: &Path) -> Result<Vec<PoseLine>> {
     Ok(poses)
 }
 
+/// Per-sensor joint tracks of recorded frames for the calibration: every synchronised frame
+/// at its server stamp, seconds after the earliest; frames recorded before their sensor was
+/// synchronised are left out (they have no common time).
+#[must_use]
+pub fn calibration_tracks(frames: &[FrameTiming]) -> Vec<trigait_calibration::SensorTrack> {
+    let origin = frames
+        .iter()
+        .filter_map(|f| f.server_stamp_nanos)
+        .min()
+        .unwrap_or(0);
+    sensor_ids(frames)
+        .into_iter()
+        .map(|id| trigait_calibration::SensorTrack {
+            frames: frames
+                .iter()
+                .filter(|f| f.sensor_id == id)
+                .filter_map(|f| {
+                    Some(trigait_calibration::TrackFrame {
+                        t_secs: (f.server_stamp_nanos? - origin) as f64 * 1e-9,
+                        joints: f.joints.clone(),
+                    })
+                })
+                .collect(),
+            id,
+        })
+        .collect()
+}
+
+/// Writes the calibrated sensors of `calibration` to `path` as a rig file named `name` (the
+/// graphs' `RIG` reads it), creating its directory.
+///
+/// # Errors
+/// [`Error::Io`]: the directory or the file cannot be written.
+pub fn write_calibrated_rig(
+    path: &Path,
+    name: &str,
+    calibration: &trigait_calibration::Calibration,
+) -> Result<()> {
+    let io = |source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let file = trigait_calibration::rig_file(name, calibration);
+    let text = serde_yaml::to_string(&file)
+        .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    std::fs::write(path, text).map_err(io)
+}
+
 /// The sensor ids of `frames`, in the order they first appear.
 #[must_use]
 pub fn sensor_ids(frames: &[FrameTiming]) -> Vec<String> {
