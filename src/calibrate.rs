@@ -50,6 +50,10 @@ pub struct Args {
     /// Print the report as JSON instead of tables.
     #[arg(long)]
     json: bool,
+    /// Also write a rerun recording (`.rrd`) of the sensors and their joint tracks before (the
+    /// rough rig) and after the calibration; open it with `rerun FILE`.
+    #[arg(long)]
+    rrd: Option<PathBuf>,
     /// Calibrate from a trial recording instead (a recorder's `OUTPUT_DIR`: its `frames.csv`,
     /// the frames on their recorded server stamps); `--init rig` then starts from
     /// `--start-rig`. The simulation options do not apply.
@@ -117,6 +121,9 @@ fn run_recording(args: &Args, dir: &std::path::Path) -> eyre::Result<()> {
     if let Some(path) = &args.output {
         write_rig(path, &format!("{name}-calibrated"), &calibration)?;
     }
+    if let Some(path) = &args.rrd {
+        write_rrd(path, &tracks, start.as_ref(), &calibration)?;
+    }
     if args.json {
         crate::stdout::print_json(&calibration)?;
     } else {
@@ -146,6 +153,21 @@ fn write_rig(
         .wrap_err("writing the calibrated rig")
 }
 
+/// `--rrd`: the sensors and tracks before and after (`trigait-calibration-rerun`).
+fn write_rrd(
+    path: &std::path::Path,
+    tracks: &[trigait_calibration::SensorTrack],
+    start: Option<&trigait_rig::Rig>,
+    calibration: &trigait_calibration::Calibration,
+) -> eyre::Result<()> {
+    let rec = trigait_calibration_rerun::save("trigait-calibrate", path)
+        .map_err(|e| eyre::eyre!("--rrd: {e}"))?;
+    trigait_calibration_rerun::log_calibration(&rec, tracks, start, calibration)
+        .wrap_err_with(|| format!("logging to {}", path.display()))?;
+    rec.flush_blocking()
+        .wrap_err_with(|| format!("writing {}", path.display()))
+}
+
 /// Runs `trigait calibrate`.
 pub fn run(args: &Args) -> eyre::Result<()> {
     if let Some(dir) = &args.recording {
@@ -169,6 +191,10 @@ pub fn run(args: &Args) -> eyre::Result<()> {
             &format!("{}-calibrated", outcome.rig),
             &outcome.calibration,
         )?;
+    }
+    if let Some(path) = &args.rrd {
+        let start = (!scenario.from_data).then_some(&outcome.rough);
+        write_rrd(path, &outcome.tracks, start, &outcome.calibration)?;
     }
     if args.json {
         crate::stdout::print_json(&JsonReport::new(&outcome))?;

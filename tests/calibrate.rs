@@ -108,3 +108,38 @@ fn calibrate_graph_writes_the_calibrated_rig() {
     // The recorder kept the raw trial next to it.
     assert!(run.out_dir.join("frames.csv").exists());
 }
+
+/// `trigait calibrate --rrd` writes a rerun recording the viewer reads back (rerun-sdk's
+/// reader, `scripts/rrd_rows.py`): every sensor and its track before (the rough rig) and after,
+/// and the adjusted joints.
+#[test]
+fn rrd_shows_sensors_and_tracks_before_and_after() {
+    let rrd = workspace().join("target/calibrate-tests/view.rrd");
+    std::fs::remove_file(&rrd).ok();
+    let out = trigait()
+        .args(["calibrate", "--rig", "ring-6", "--rrd"])
+        .arg(&rrd)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = common::rrd_json_of(&rrd);
+    let static_rows = rows["static"].as_object().unwrap();
+    let mut expected = vec!["after/joints".to_owned()];
+    for stage in ["before", "after"] {
+        for k in 1..=6 {
+            for what in ["sensors/k{k}", "sensors/k{k}/view", "tracks/k{k}"] {
+                expected.push(format!("{stage}/{}", what.replace("{k}", &k.to_string())));
+            }
+        }
+    }
+    for path in &expected {
+        assert!(
+            static_rows.contains_key(path.as_str()),
+            "{path} missing: {static_rows:?}"
+        );
+    }
+}

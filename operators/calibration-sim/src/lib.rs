@@ -113,6 +113,12 @@ pub struct Outcome {
     /// Wall time of fusing every joint of the calibration's own frames once with the true
     /// rig: the same-run baseline [`Outcome::calibrate_secs`] is compared with.
     pub fusion_pass_secs: f64,
+    /// What the sensors reported, the calibration's input.
+    #[serde(skip)]
+    pub tracks: Vec<SensorTrack>,
+    /// The rough rig the calibration started from (also when it started from the data).
+    #[serde(skip)]
+    pub rough: Rig,
 }
 
 /// The sensors' tracks of `sim`'s walk under `seed`: each sensor at its own phase and 30 Hz,
@@ -388,5 +394,7 @@ pub fn simulate(scenario: &Scenario) -> Result<Outcome> {
         fusion_samples: samples,
         calibrate_secs,
         fusion_pass_secs,
+        tracks,
+        rough,
     })
 }
