@@ -250,20 +250,22 @@ fn render(o: &Outcome) -> String {
     render_sensors(&mut out, c);
     let _ = writeln!(
         out,
-        "\nagainst the truth (its world frame fixed from the true joints the same way):"
+        "\nagainst the truth (its world frame fixed from the true joints the same way; shape: \
+         after the rigid motion that best maps the true sensor centres onto the calibrated ones):"
     );
     let _ = writeln!(
         out,
-        "{:<6} {:>12} {:>12} {:>16} {:>16}",
-        "sensor", "error mm", "error deg", "rough rig mm", "rough rig deg"
+        "{:<6} {:>12} {:>12} {:>12} {:>16} {:>16}",
+        "sensor", "error mm", "error deg", "shape mm", "rough rig mm", "rough rig deg"
     );
     for s in &o.scores {
         let _ = writeln!(
             out,
-            "{:<6} {:>12.1} {:>12.3} {:>16.0} {:>16.1}",
+            "{:<6} {:>12.1} {:>12.3} {:>12.1} {:>16.0} {:>16.1}",
             s.id,
             s.position_error_m * 1e3,
             s.rotation_error_rad.to_degrees(),
+            s.shape_error_m * 1e3,
             s.rough_position_error_m * 1e3,
             s.rough_rotation_error_rad.to_degrees()
         );
