@@ -41,6 +41,28 @@ fn closed_stdout_ends_quietly() {
     survives_a_closed_pipe(&["eval", "--trials", "1", "--json"]);
 }
 
+/// `trigait calibrate --json` reports the fusion RMSE of a fresh draw of the walk with the
+/// calibrated rig and with the true rig; on ring-6 from a rig 30 cm and 20° off, the first is
+/// within 1.1× the second.
+#[test]
+fn reports_fusion_rmse_within_the_bound() {
+    let out = trigait()
+        .args(["calibrate", "--rig", "ring-6", "--laps", "3", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let calibrated = report["fusion_rmse_calibrated_m"].as_f64().unwrap();
+    let truth = report["fusion_rmse_true_m"].as_f64().unwrap();
+    eprintln!("fusion RMSE {calibrated:.5} m vs {truth:.5} m");
+    assert!(truth > 0.005 && calibrated <= 1.1 * truth, "{report:#}");
+    assert_eq!(report["poses"].as_array().unwrap().len(), 6);
+}
+
 /// `dataflows/calibrate.yml` on a 10 s run of the simulated walk, calibrating from the data
 /// alone after 8 s: it writes `out/rig.calibrated.yml`, a rig file the graphs read, whose
 /// sensors lie at the true rig's distances from each other within 2 cm (what the walk fixes
