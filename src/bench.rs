@@ -63,15 +63,15 @@ pub fn run(args: &Args) -> eyre::Result<()> {
     if inputs.is_empty() {
         bail!("no joint was seen by three sensors on rig {:?}", rig.name);
     }
-    println!(
+    crate::stdout::outln!(
         "trigait bench: {} joint observations from the walker on rig {} ({} sensors), one thread",
         inputs.len(),
         rig.name,
         rig.sensors.len()
-    );
+    )?;
 
     let linear_rate = solves_per_sec(&inputs, &Params::new(Method::Linear));
-    println!("\n{:<15} {:>14} {:>12}", "method", "solves/s", "vs linear");
+    crate::stdout::outln!("\n{:<15} {:>14} {:>12}", "method", "solves/s", "vs linear")?;
     let mut nls_rate = 0.0;
     for (method, robust) in [
         (Method::Geometric, false),
@@ -94,7 +94,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
         } else {
             method.to_string()
         };
-        println!("{name:<15} {rate:>14.0} {:>11.2}×", rate / linear_rate);
+        crate::stdout::outln!("{name:<15} {rate:>14.0} {:>11.2}×", rate / linear_rate)?;
     }
 
     let export = args
@@ -102,15 +102,15 @@ pub fn run(args: &Args) -> eyre::Result<()> {
         .clone()
         .unwrap_or_else(|| std::env::temp_dir().join("trigait-nls-problems.json"));
     let ours = export_problems(&inputs, &export)?;
-    println!(
+    crate::stdout::outln!(
         "\nexported {} NLS problems to {}",
         ours.len(),
         export.display()
-    );
+    )?;
     let Some(python) = &args.python else {
-        println!(
+        crate::stdout::outln!(
             "SciPy baseline skipped: pass --python PATH (scripts/bench.sh installs NumPy and SciPy into .venv)"
-        );
+        )?;
         return Ok(());
     };
     let scipy = run_scipy(python, &export)?;
@@ -122,14 +122,14 @@ pub fn run(args: &Args) -> eyre::Result<()> {
             d.sqrt()
         })
         .fold(0.0, f64::max);
-    println!(
+    crate::stdout::outln!(
         "scipy.optimize.least_squares (SciPy {}, method=lm): {:.0} solves/s; trigait nls: {:.0} solves/s = {:.1}× SciPy",
         scipy.scipy,
         scipy.solves_per_sec,
         nls_rate,
         nls_rate / scipy.solves_per_sec
-    );
-    println!("largest difference between the two solutions: {max_diff:.2e} m");
+    )?;
+    crate::stdout::outln!("largest difference between the two solutions: {max_diff:.2e} m")?;
     if max_diff > 1e-6 {
         bail!("SciPy and trigait disagree by {max_diff:.3e} m on the same problems");
     }

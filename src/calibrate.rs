@@ -50,6 +50,10 @@ pub struct Args {
     /// Print the report as JSON instead of tables.
     #[arg(long)]
     json: bool,
+    /// Also write a rerun recording (`.rrd`) of the sensors and their joint tracks before (the
+    /// rough rig) and after the calibration; open it with `rerun FILE`.
+    #[arg(long)]
+    rrd: Option<PathBuf>,
     /// Calibrate from a trial recording instead (a recorder's `OUTPUT_DIR`: its `frames.csv`,
     /// the frames on their recorded server stamps); `--init rig` then starts from
     /// `--start-rig`. The simulation options do not apply.
@@ -76,39 +80,12 @@ fn parse_perturb(s: &str) -> Result<(f64, f64), String> {
     Ok((m, deg))
 }
 
-/// Per-sensor joint tracks of a recording: every synchronised frame at its server stamp,
-/// seconds after the recording's first; frames recorded before their sensor was synchronised
-/// are left out (they have no common time).
-fn tracks_of(frames: &[trigait_schema::FrameTiming]) -> Vec<trigait_calibration::SensorTrack> {
-    let origin = frames
-        .iter()
-        .filter_map(|f| f.server_stamp_nanos)
-        .min()
-        .unwrap_or(0);
-    trigait_recording::sensor_ids(frames)
-        .into_iter()
-        .map(|id| trigait_calibration::SensorTrack {
-            frames: frames
-                .iter()
-                .filter(|f| f.sensor_id == id)
-                .filter_map(|f| {
-                    Some(trigait_calibration::TrackFrame {
-                        t_secs: (f.server_stamp_nanos? - origin) as f64 * 1e-9,
-                        joints: f.joints.clone(),
-                    })
-                })
-                .collect(),
-            id,
-        })
-        .collect()
-}
-
 /// `trigait calibrate --recording DIR`.
 fn run_recording(args: &Args, dir: &std::path::Path) -> eyre::Result<()> {
     let frames_path = dir.join(trigait_recording::FRAMES_FILE);
     let frames = trigait_recording::read_frames(&frames_path)
         .wrap_err_with(|| format!("reading the recording {}", dir.display()))?;
-    let tracks = tracks_of(&frames);
+    let tracks = trigait_recording::calibration_tracks(&frames);
     let start = match (&args.start_rig, args.init.as_str()) {
         (_, "data") => None,
         (Some(spec), _) => Some(
@@ -144,8 +121,11 @@ fn run_recording(args: &Args, dir: &std::path::Path) -> eyre::Result<()> {
     if let Some(path) = &args.output {
         write_rig(path, &format!("{name}-calibrated"), &calibration)?;
     }
+    if let Some(path) = &args.rrd {
+        write_rrd(path, &tracks, start.as_ref(), &calibration)?;
+    }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&calibration)?);
+        crate::stdout::print_json(&calibration)?;
     } else {
         let mut out = String::new();
         let _ = writeln!(
@@ -159,7 +139,7 @@ fn run_recording(args: &Args, dir: &std::path::Path) -> eyre::Result<()> {
         );
         render_sensors(&mut out, &calibration);
         render_findings(&mut out, &calibration);
-        print!("{out}");
+        crate::stdout::print(&out)?;
     }
     Ok(())
 }
@@ -169,12 +149,23 @@ fn write_rig(
     name: &str,
     calibration: &trigait_calibration::Calibration,
 ) -> eyre::Result<()> {
-    let file = trigait_calibration::rig_file(name, calibration);
-    let text = serde_yaml::to_string(&file).wrap_err("serialising the rig")?;
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).wrap_err_with(|| format!("creating {}", dir.display()))?;
-    }
-    std::fs::write(path, text).wrap_err_with(|| format!("writing {}", path.display()))
+    trigait_recording::write_calibrated_rig(path, name, calibration)
+        .wrap_err("writing the calibrated rig")
+}
+
+/// `--rrd`: the sensors and tracks before and after (`trigait-calibration-rerun`).
+fn write_rrd(
+    path: &std::path::Path,
+    tracks: &[trigait_calibration::SensorTrack],
+    start: Option<&trigait_rig::Rig>,
+    calibration: &trigait_calibration::Calibration,
+) -> eyre::Result<()> {
+    let rec = trigait_calibration_rerun::save("trigait-calibrate", path)
+        .map_err(|e| eyre::eyre!("--rrd: {e}"))?;
+    trigait_calibration_rerun::log_calibration(&rec, tracks, start, calibration)
+        .wrap_err_with(|| format!("logging to {}", path.display()))?;
+    rec.flush_blocking()
+        .wrap_err_with(|| format!("writing {}", path.display()))
 }
 
 /// Runs `trigait calibrate`.
@@ -201,13 +192,14 @@ pub fn run(args: &Args) -> eyre::Result<()> {
             &outcome.calibration,
         )?;
     }
+    if let Some(path) = &args.rrd {
+        let start = (!scenario.from_data).then_some(&outcome.rough);
+        write_rrd(path, &outcome.tracks, start, &outcome.calibration)?;
+    }
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&JsonReport::new(&outcome))?
-        );
+        crate::stdout::print_json(&JsonReport::new(&outcome))?;
     } else {
-        print!("{}", render(&outcome));
+        crate::stdout::print(&render(&outcome))?;
     }
     Ok(())
 }
@@ -258,20 +250,22 @@ fn render(o: &Outcome) -> String {
     render_sensors(&mut out, c);
     let _ = writeln!(
         out,
-        "\nagainst the truth (its world frame fixed from the true joints the same way):"
+        "\nagainst the truth (its world frame fixed from the true joints the same way; shape: \
+         after the rigid motion that best maps the true sensor centres onto the calibrated ones):"
     );
     let _ = writeln!(
         out,
-        "{:<6} {:>12} {:>12} {:>16} {:>16}",
-        "sensor", "error mm", "error deg", "rough rig mm", "rough rig deg"
+        "{:<6} {:>12} {:>12} {:>12} {:>16} {:>16}",
+        "sensor", "error mm", "error deg", "shape mm", "rough rig mm", "rough rig deg"
     );
     for s in &o.scores {
         let _ = writeln!(
             out,
-            "{:<6} {:>12.1} {:>12.3} {:>16.0} {:>16.1}",
+            "{:<6} {:>12.1} {:>12.3} {:>12.1} {:>16.0} {:>16.1}",
             s.id,
             s.position_error_m * 1e3,
             s.rotation_error_rad.to_degrees(),
+            s.shape_error_m * 1e3,
             s.rough_position_error_m * 1e3,
             s.rough_rotation_error_rad.to_degrees()
         );

@@ -8,7 +8,6 @@
 //! `trigait-depth-rerun`, the same code as the `depth-metrics` node (entities
 //! `depth/sequence/...`, or `depth/sensor_NN/...` with `--calibration`).
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use eyre::{WrapErr as _, bail};
@@ -255,7 +254,7 @@ fn sequence(
             report: &report,
             maps: written,
         };
-        print_json(&json)
+        crate::stdout::print_json(&json)
     } else {
         let mut out = String::new();
         let source = match files {
@@ -269,7 +268,7 @@ fn sequence(
         );
         table(&mut out, &report);
         out += &maps_written(std::slice::from_ref(&written), args.out.as_deref());
-        print_text(&out)
+        crate::stdout::print(&out)
     }
 }
 
@@ -448,7 +447,7 @@ fn multi_sensor(
             up_prior: check.up_prior,
             sensors: sensors_json,
         };
-        return print_json(&json);
+        return crate::stdout::print_json(&json);
     }
     let mut out = format!(
         "trigait depth-metrics: {} sensors, calibration {}\n",
@@ -489,7 +488,7 @@ fn multi_sensor(
         check.max_normal_angle_deg
     );
     out += &maps_written(&written, args.out.as_deref());
-    print_text(&out)
+    crate::stdout::print(&out)
 }
 
 /// One line for every map written: how many, where, and which metrics.
@@ -510,17 +509,4 @@ fn maps_written(written: &[Vec<WrittenMap>], dir: Option<&Path>) -> String {
         dir.display(),
         names.join(", ")
     )
-}
-
-pub(crate) fn print_json(value: &impl Serialize) -> eyre::Result<()> {
-    let text = serde_json::to_string_pretty(value).wrap_err("serialising the report")?;
-    print_text(&(text + "\n"))
-}
-
-pub(crate) fn print_text(text: &str) -> eyre::Result<()> {
-    let mut stdout = std::io::stdout().lock();
-    stdout
-        .write_all(text.as_bytes())
-        .wrap_err("writing to stdout")?;
-    stdout.flush().wrap_err("writing to stdout")
 }

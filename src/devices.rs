@@ -18,7 +18,7 @@ pub struct Args {}
 /// No libfreenect2 in this build, no device, or no permission to open one.
 pub fn run(_args: &Args) -> eyre::Result<()> {
     let mut driver = driver()?;
-    print!("{}", report(driver.as_mut())?);
+    crate::stdout::print(&report(driver.as_mut())?)?;
     Ok(())
 }
 

@@ -89,9 +89,9 @@ pub fn run(args: &Args) -> eyre::Result<()> {
     bar.finish_and_clear();
     require_common_samples(&report)?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        crate::stdout::print_json(&report)?;
     } else {
-        print!("{}", render(&report));
+        crate::stdout::print(&render(&report))?;
     }
     Ok(())
 }

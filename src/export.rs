@@ -69,7 +69,7 @@ pub fn run(args: Args) -> eyre::Result<()> {
         Format::Csv => trigait_motion::write_csv(&args.output, &clip),
     };
     written.wrap_err_with(|| format!("writing {}", args.output.display()))?;
-    crate::gait::print_stdout(&format!(
+    crate::stdout::print(&format!(
         "wrote {} ({} joints, {} frames at {:.0} Hz, filter {}) to {}\n",
         match format {
             Format::Trc => "TRC",

@@ -448,14 +448,13 @@ pub fn run(args: Args) -> eyre::Result<()> {
             analysis: &analysis,
             kinect_sim,
         };
-        let text = serde_json::to_string_pretty(&report).wrap_err("encoding the JSON report")?;
-        print_stdout(&format!("{text}\n"))
+        crate::stdout::print_json(&report)
     } else {
         let mut text = table(&args, &input.notes, &analysis);
         if let Some(k) = &kinect_sim {
             text.push_str(&kinect_table(k));
         }
-        print_stdout(&text)
+        crate::stdout::print(&text)
     }
 }
 
@@ -579,18 +578,6 @@ fn kinect_table(k: &KinectSim) -> String {
         if k.within_tolerances { "yes" } else { "NO" }
     );
     out
-}
-
-/// Writes `text` to stdout; a closed pipe (`trigait gait … | head`) ends quietly.
-pub fn print_stdout(text: &str) -> eyre::Result<()> {
-    use std::io::Write;
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            Err(e).wrap_err("writing to standard output")
-        }
-        _ => Ok(()),
-    }
 }
 
 fn write_plots(

@@ -171,7 +171,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
                 })
                 .collect(),
         };
-        return crate::depth_metrics::print_json(&report);
+        return crate::stdout::print_json(&report);
     }
     let mut text = String::new();
     for (file, tracked, iou, mask_png, overlay_png) in &results {
@@ -180,7 +180,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
             text += &format!("  wrote {} and {}\n", m.display(), o.display());
         }
     }
-    crate::depth_metrics::print_text(&text)
+    crate::stdout::print(&text)
 }
 
 /// Intersection over union of two pixel masks (an empty `found` is no pixel).

@@ -19,6 +19,7 @@ mod gait;
 mod legs;
 mod ranges;
 mod report;
+mod stdout;
 
 /// Markerless 3-D gait tracking from several Kinect v2 depth sensors.
 #[derive(Debug, Parser)]

@@ -75,7 +75,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
     )?;
     std::fs::write(&args.output, html)
         .wrap_err_with(|| format!("writing {}", args.output.display()))?;
-    gait::print_stdout(&format!(
+    crate::stdout::print(&format!(
         "report of {} written to {}\n",
         args.file.display(),
         args.output.display()

@@ -179,14 +179,22 @@ fn send_capture(
         params.insert(ports::TRUE_STAMP_NANOS.to_owned(), Parameter::Integer(t));
     }
     if let Some(r) = captured.recorded {
-        params.insert(
-            ports::RECORDED_SERVER_STAMP_NANOS.to_owned(),
-            Parameter::Integer(r.server_stamp_nanos),
-        );
-        params.insert(
-            ports::RECORDED_UNCERTAINTY_NANOS.to_owned(),
-            Parameter::Integer(r.uncertainty_nanos),
-        );
+        if let Some(server) = r.server_stamp_nanos {
+            params.insert(
+                ports::RECORDED_SERVER_STAMP_NANOS.to_owned(),
+                Parameter::Integer(server),
+            );
+            params.insert(
+                ports::RECORDED_UNCERTAINTY_NANOS.to_owned(),
+                Parameter::Integer(r.uncertainty_nanos),
+            );
+        }
+        if let Some(received) = r.received_nanos {
+            params.insert(
+                ports::RECORDED_RECEIVED_NANOS.to_owned(),
+                Parameter::Integer(received),
+            );
+        }
     }
     match out {
         Out::Frame(frame_out) => {

@@ -435,7 +435,7 @@ fn recording_backend_errors_and_plays() {
     let dir = scratch_dir("recording-backend");
     let mut text = format!("{}\n", trigait_recording::FRAMES_HEADER);
     text.push_str(
-        "k1,0,100,90,5,,,,knee_left,0.1,0.2,3,2\nk1,1,133,123,5,,,,knee_left,0.1,0.2,3,2\n",
+        "k1,0,100,90,5,,,,95,knee_left,0.1,0.2,3,2\nk1,1,133,123,5,,,,128,knee_left,0.1,0.2,3,2\n",
     );
     let good = dir.join("frames.csv");
     std::fs::write(&good, &text).unwrap();
@@ -465,5 +465,6 @@ fn recording_backend_errors_and_plays() {
     let mut clock = sensor_clock(&c, 0);
     let first = source.capture(0, &mut clock).unwrap();
     assert_eq!(first.frame.local_stamp_nanos, 100);
-    assert_eq!(first.recorded.map(|r| r.server_stamp_nanos), Some(90));
+    assert_eq!(first.recorded.map(|r| r.server_stamp_nanos), Some(Some(90)));
+    assert_eq!(first.recorded.map(|r| r.received_nanos), Some(Some(95)));
 }

@@ -597,6 +597,7 @@ mod tests {
             offset_nanos: Some(0),
             drift_ppm: Some(0.0),
             true_stamp_nanos: Some(true_nanos),
+            received_nanos: None,
             joints: Vec::new(),
         }
     }

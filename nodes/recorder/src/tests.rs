@@ -146,6 +146,7 @@ fn summary_scores_and_counts() {
             offset_nanos: None,
             drift_ppm: None,
             true_stamp_nanos: Some(0),
+            received_nanos: None,
             joints: Vec::new(),
         },
         FrameTiming {
@@ -157,6 +158,7 @@ fn summary_scores_and_counts() {
             offset_nanos: Some(5_000_000),
             drift_ppm: Some(10.0),
             true_stamp_nanos: Some(1_000_000_000),
+            received_nanos: None,
             joints: Vec::new(),
         },
         FrameTiming {
@@ -168,6 +170,7 @@ fn summary_scores_and_counts() {
             offset_nanos: Some(5_000_000),
             drift_ppm: Some(10.0),
             true_stamp_nanos: Some(2_000_000_000),
+            received_nanos: None,
             joints: Vec::new(),
         },
     ]);

@@ -8,7 +8,7 @@
 //! | `SLOT_MILLIS` | ms | `15` | slot length under `slots` (cycle = (n+1) slots) |
 //! | `LATENCY_DEADLINE_MILLIS` | ms | `100` | a set goes out incomplete after this (must exceed transport delay) |
 //! | `NTP_INTERVAL_MILLIS` | ms | `100` | one NTP exchange per sensor this often |
-//! | `TIMESTAMPS` | `ntp` or `recorded` | `ntp` | `recorded`: replaying a trial recording (`kinect-source` `BACKEND: recording`), place each frame on the server stamp the recording's `sync` gave it (`trigait.recorded_server_stamp_nanos`) instead of mapping it with NTP; time then moves with the frames only (no deadline on the host clock; NTP requests still go out, as the sign that sync listens), so the sets are built from the same frames at the same instants as in the recorded run, at any replay speed; a frame recorded unsynchronised is dropped as it was then |
+//! | `TIMESTAMPS` | `ntp` or `recorded` | `ntp` | `recorded`: replaying a trial recording (`kinect-source` `BACKEND: recording`), place each frame on the server stamp the recording's `sync` gave it (`trigait.recorded_server_stamp_nanos`) instead of mapping it with NTP, and take the frames in the order the recording's `sync` received them, its clock moved to each frame's recorded arrival (`trigait.recorded_received_nanos`) instead of the host clock (NTP requests still go out, as the sign that sync listens): with the recorded run's parameters (the same `POLICY`, `FUSION_RATE_HZ`, `LATENCY_DEADLINE_MILLIS`, …) it then makes the same sets from the same frames at any replay speed, the deadline decisions included; a frame recorded unsynchronised is dropped as it was then |
 //! | `SENSORS` | comma list | from the `frame_<id>` inputs | sensor ids, in slot order |
 //!
 //! Inputs: `frame_<id>` and `ntp_<id>` per source, `tick` (a `dora/timer/millis/N` timer, ≤ 20 ms).
@@ -48,10 +48,6 @@ pub struct Config {
     /// Frames carry the server stamps of a recording ([`TIMESTAMPS`] `recorded`).
     pub recorded_time: bool,
 }
-
-/// Under `TIMESTAMPS: recorded`, frames as far ahead of the slowest source as a replay as
-/// fast as possible may run (the whole of a long trial's sensor).
-const RECORDED_MAX_FRAMES_PER_SENSOR: usize = 1 << 20;
 
 /// `key` in milliseconds (positive), as nanoseconds.
 fn millis(lookup: &impl Fn(&str) -> Option<String>, key: &str, default: f64) -> eyre::Result<i64> {
@@ -94,14 +90,6 @@ impl Config {
                 bail!("{NODE}: {TIMESTAMPS}={other:?} is invalid: expected `ntp` or `recorded`")
             }
         };
-        if recorded_time {
-            // Sets wait for every sensor's frames (or the end of the replay), as the recorded
-            // run's did when no frame came late: a deadline would count on how fast the
-            // sources replay, not on the recorded instants.
-            params = params
-                .with_latency_deadline_nanos(i64::MAX / 4)
-                .with_max_frames_per_sensor(RECORDED_MAX_FRAMES_PER_SENSOR);
-        }
         params
             .validate()
             .map_err(|e| eyre!("{NODE}: invalid sync parameters ({POLICY}, {FUSION_RATE_HZ}, {SLOT_MILLIS}, {LATENCY_DEADLINE_MILLIS}): {e}"))?;

@@ -180,6 +180,8 @@ struct State {
     ended: Vec<String>,
     /// Frames are placed on their recorded server stamps (`TIMESTAMPS: recorded`).
     recorded_time: bool,
+    /// Under recorded time: each source's replayed frames not taken in yet, in arrival order.
+    replayed: ReplayOrder,
 }
 
 /// The event loop.
@@ -213,6 +215,7 @@ pub fn run(
         closed: Vec::new(),
         ended: Vec::new(),
         recorded_time: config.recorded_time,
+        replayed: ReplayOrder::default(),
         sensors,
         routes,
     };
@@ -238,7 +241,7 @@ pub fn run(
             }
             Event::InputClosed { id } => {
                 if let Input::Frame(sensor) = Input::parse(id.as_str())
-                    && state.on_source_closed(sensor)
+                    && state.on_source_closed(&mut node, sensor)?
                 {
                     break;
                 }
@@ -270,24 +273,27 @@ pub fn run(
 
 impl State {
     /// A source's input closed: whether every source has now ended (the run's end).
-    fn on_source_closed(&mut self, sensor: &str) -> bool {
+    fn on_source_closed(&mut self, node: &mut DoraNode, sensor: &str) -> eyre::Result<bool> {
         self.closed.push(sensor.to_owned());
+        self.take_replayed(node)?;
         if self.closed.len() >= self.sensors.len() {
             info!("every source has ended; sending the last sets");
-            return true;
+            return Ok(true);
         }
         if self.ended.iter().any(|e| e == sensor) {
             info!(%sensor, "source ended its stream");
         } else {
             warn!(%sensor, "source stopped; its sets go out incomplete from now on");
         }
-        false
+        Ok(false)
     }
 
     /// The end of the run: the sets still held go out, with the last frame timings, when the
     /// sources ended; after a stop they are counted instead, because dora delivers nothing a
     /// node sends after the stop reached the graph.
     fn finish(&mut self, node: &mut DoraNode, stopped: bool) -> eyre::Result<()> {
+        self.replayed.release_all();
+        self.take_replayed(node)?;
         let sets: Vec<AlignedSet> = self.buffer.flush().collect();
         if stopped {
             self.counters.sets_unfinished_at_stop = sets.len() as u64;
@@ -446,6 +452,7 @@ impl State {
             &self.buffer,
             &frame,
             get_integer_param(params, ports::TRUE_STAMP_NANOS),
+            now,
         ));
         let sent = get_integer_param(params, ports::SENT_NANOS).unwrap_or(now);
         match self.buffer.push(frame) {
@@ -465,7 +472,10 @@ impl State {
 
 impl State {
     /// A replayed frame placed on the server stamp its recording gave it (none: it was not
-    /// synchronised in the recorded run, and is dropped as it was then).
+    /// synchronised in the recorded run, and is dropped as it was then). A frame that carries
+    /// the instant the recording's `sync` received it waits until every source still playing
+    /// has sent a frame at least as late, so the frames are taken in the recorded order
+    /// whatever the sources' pace ([`ReplayOrder`]).
     fn on_recorded_frame(
         &mut self,
         node: &mut DoraNode,
@@ -475,17 +485,61 @@ impl State {
     ) -> eyre::Result<()> {
         let server = get_integer_param(params, ports::RECORDED_SERVER_STAMP_NANOS);
         let uncertainty = get_integer_param(params, ports::RECORDED_UNCERTAINTY_NANOS);
-        self.timings.push(FrameTiming {
-            sensor_id: frame.sensor_id.clone(),
-            seq: frame.seq,
-            local_stamp_nanos: frame.local_stamp_nanos,
-            server_stamp_nanos: server,
-            uncertainty_nanos: server.map(|_| uncertainty.unwrap_or(0)),
-            offset_nanos: None,
-            drift_ppm: None,
-            true_stamp_nanos: get_integer_param(params, ports::TRUE_STAMP_NANOS),
-            joints: frame.joints.clone(),
-        });
+        let received = get_integer_param(params, ports::RECORDED_RECEIVED_NANOS);
+        let sensor = frame.sensor_id.clone();
+        let replayed = Replayed {
+            timing: FrameTiming {
+                sensor_id: frame.sensor_id.clone(),
+                seq: frame.seq,
+                local_stamp_nanos: frame.local_stamp_nanos,
+                server_stamp_nanos: server,
+                uncertainty_nanos: server.map(|_| uncertainty.unwrap_or(0)),
+                offset_nanos: None,
+                drift_ppm: None,
+                true_stamp_nanos: get_integer_param(params, ports::TRUE_STAMP_NANOS),
+                received_nanos: received,
+                joints: frame.joints.clone(),
+            },
+            frame,
+            sent_nanos: get_integer_param(params, ports::SENT_NANOS).unwrap_or(now),
+        };
+        match received {
+            Some(received) => self.replayed.push(&sensor, received, replayed),
+            // A recording without arrival instants: taken in as it comes.
+            None => self.take_in(node, replayed)?,
+        }
+        if self.ended.contains(&sensor) {
+            self.replayed.finished(&sensor);
+        }
+        self.take_replayed(node)
+    }
+
+    /// Takes in the replayed frames whose turn has come.
+    fn take_replayed(&mut self, node: &mut DoraNode) -> eyre::Result<()> {
+        for sensor in &self.closed {
+            self.replayed.finished(sensor);
+        }
+        while let Some(next) = self.replayed.pop(&self.sensors) {
+            self.take_in(node, next)?;
+        }
+        Ok(())
+    }
+
+    /// What the recorded run's `sync` did with the frame: its clock moved to the instant it
+    /// received the frame (sets whose deadline passed go out), then the frame is buffered.
+    fn take_in(&mut self, node: &mut DoraNode, replayed: Replayed) -> eyre::Result<()> {
+        let Replayed {
+            frame,
+            timing,
+            sent_nanos,
+        } = replayed;
+        let server = timing.server_stamp_nanos;
+        let uncertainty = timing.uncertainty_nanos;
+        if let Some(received) = timing.received_nanos {
+            let sets: Vec<AlignedSet> = self.buffer.advance_to(received).collect();
+            self.send_sets(node, sets, received)?;
+        }
+        self.timings.push(timing);
         let Some(server_stamp_nanos) = server else {
             self.counters.frames_dropped += 1;
             return Ok(());
@@ -495,11 +549,10 @@ impl State {
             server_stamp_nanos,
             time_uncertainty_nanos: uncertainty.unwrap_or(0),
         };
-        let sent = get_integer_param(params, ports::SENT_NANOS).unwrap_or(now);
         match self.buffer.push_timed(timed) {
             Ok(sets) => {
                 let sets: Vec<AlignedSet> = sets.collect();
-                self.send_sets(node, sets, sent)?;
+                self.send_sets(node, sets, sent_nanos)?;
             }
             Err(e) => {
                 self.counters.frames_dropped += 1;
@@ -510,10 +563,76 @@ impl State {
     }
 }
 
+/// A replayed frame waiting for its turn.
+struct Replayed {
+    frame: trigait_skeleton::SkeletonFrame,
+    timing: FrameTiming,
+    sent_nanos: i64,
+}
+
+/// The replayed frames in the order the recording's `sync` received them. Each source plays
+/// its own sensor in recorded order, but the sources run at their own pace, so frames reach
+/// this node interleaved otherwise than in the recorded run; and the recorded `sync` sent a
+/// set when a deadline passed on its clock, before a late frame arrived. Taking the frames
+/// in order of their recorded arrival instants, each after moving the clock to that instant,
+/// repeats every one of those decisions. A frame is taken once every source still playing has
+/// one waiting (the earliest goes first; a tie goes to the sensor listed first).
+#[derive(Default)]
+struct ReplayOrder {
+    waiting: HashMap<String, std::collections::VecDeque<(i64, Replayed)>>,
+    /// Sources that will send nothing more.
+    finished: Vec<String>,
+    /// Take everything (the end of the run).
+    all: bool,
+}
+
+impl ReplayOrder {
+    fn push(&mut self, sensor: &str, received_nanos: i64, frame: Replayed) {
+        self.waiting
+            .entry(sensor.to_owned())
+            .or_default()
+            .push_back((received_nanos, frame));
+    }
+
+    fn finished(&mut self, sensor: &str) {
+        if !self.finished.iter().any(|s| s == sensor) {
+            self.finished.push(sensor.to_owned());
+        }
+    }
+
+    fn release_all(&mut self) {
+        self.all = true;
+    }
+
+    /// The next frame to take in, if its turn has come.
+    fn pop(&mut self, sensors: &[String]) -> Option<Replayed> {
+        let mut best: Option<(i64, &String)> = None;
+        for sensor in sensors {
+            match self.waiting.get(sensor).and_then(|q| q.front()) {
+                Some((at, _)) => {
+                    if best.is_none_or(|(b, _)| *at < b) {
+                        best = Some((*at, sensor));
+                    }
+                }
+                None if self.all || self.finished.contains(sensor) => {}
+                // This source may still send an earlier frame.
+                None => return None,
+            }
+        }
+        let (_, sensor) = best?;
+        let sensor = sensor.clone();
+        self.waiting
+            .get_mut(&sensor)
+            .and_then(|q| q.pop_front())
+            .map(|(_, f)| f)
+    }
+}
+
 fn timing_of(
     buffer: &SyncBuffer,
     frame: &trigait_skeleton::SkeletonFrame,
     true_stamp_nanos: Option<i64>,
+    now: i64,
 ) -> FrameTiming {
     let mapped = buffer.server_from_local(&frame.sensor_id, frame.local_stamp_nanos);
     let estimate = buffer.clock(&frame.sensor_id).and_then(|c| c.estimate());
@@ -526,6 +645,7 @@ fn timing_of(
         offset_nanos: estimate.map(|e| e.offset_nanos),
         drift_ppm: estimate.map(|e| e.drift_ppm),
         true_stamp_nanos,
+        received_nanos: Some(now),
         joints: frame.joints.clone(),
     }
 }

@@ -6,7 +6,7 @@ use dora_node_api::serde_json;
 use trigait_node_testing::{
     chain, init_node, input_event, lookup, output_arrays, output_count, scratch_dir,
 };
-use trigait_sync::{AlignedSet, Policy};
+use trigait_sync::{AlignedSet, Policy, SyncParams};
 
 use crate::config::Config;
 
@@ -28,11 +28,14 @@ fn config_defaults_and_policy() {
     assert_eq!(c.params.slot_nanos, 20_000_000);
     assert_eq!(c.sensors.unwrap(), ["a", "b"]);
     assert!(!c.recorded_time);
-    // Recorded time: no host-clock deadline, room for a source far ahead of the others.
+    // Recorded time: the recorded run's deadline and buffer, its clock the recorded arrivals.
     let c = Config::from_lookup(lookup(&[("TIMESTAMPS", "recorded")])).unwrap();
     assert!(c.recorded_time);
-    assert!(c.params.latency_deadline_nanos > 1_000_000_000_000_000);
-    assert!(c.params.max_frames_per_sensor >= 100_000);
+    assert_eq!(c.params.latency_deadline_nanos, 100_000_000);
+    assert_eq!(
+        c.params.max_frames_per_sensor,
+        SyncParams::default().max_frames_per_sensor
+    );
 }
 
 /// An unknown policy (or interpolation, or a bad number) stops the node with its key named.

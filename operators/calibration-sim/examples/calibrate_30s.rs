@@ -2,7 +2,7 @@
 //! `ring-6`, calibrated from the perturbed rig on one core; printed against a baseline measured
 //! in the same run (one pass weighing and fusing every report of the same frames).
 //!
-//! `cargo run --release -p trigait-calibration-sim --example calibrate_30s`
+//! `cargo build --release --workspace --examples && taskset -c 0 target/release/examples/calibrate_30s`
 
 use trigait_calibration_sim::{Scenario, simulate};
 

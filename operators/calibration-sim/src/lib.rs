@@ -82,6 +82,11 @@ pub struct SensorScore {
     pub rough_position_error_m: f64,
     /// Same for the rough rig.
     pub rough_rotation_error_rad: f64,
+    /// Distance of the calibrated from the true optical centre after the one rigid motion
+    /// that best maps the true centres onto the calibrated ones, metres: the error of the
+    /// rig's own geometry, whatever the world frame (the part of
+    /// [`SensorScore::position_error_m`] the floor and the walking direction do not explain).
+    pub shape_error_m: f64,
 }
 
 /// A scenario's outcome.
@@ -113,6 +118,12 @@ pub struct Outcome {
     /// Wall time of fusing every joint of the calibration's own frames once with the true
     /// rig: the same-run baseline [`Outcome::calibrate_secs`] is compared with.
     pub fusion_pass_secs: f64,
+    /// What the sensors reported, the calibration's input.
+    #[serde(skip)]
+    pub tracks: Vec<SensorTrack>,
+    /// The rough rig the calibration started from (also when it started from the data).
+    #[serde(skip)]
+    pub rough: Rig,
 }
 
 /// The sensors' tracks of `sim`'s walk under `seed`: each sensor at its own phase and 30 Hz,
@@ -232,6 +243,35 @@ fn truth_tracks(clip: &MotionClip, calibration: &Calibration) -> Tracks {
     }
 }
 
+/// Per point, the distance of `to[i]` from `from[i]` after the rigid motion (Kabsch, no
+/// scale) that best maps `from` onto `to` in the least-squares sense.
+#[must_use]
+pub fn rigid_residuals(from: &[Vector3<f64>], to: &[Vector3<f64>]) -> Vec<f64> {
+    let n = from.len().min(to.len());
+    if n == 0 {
+        return Vec::new();
+    }
+    let mean = |v: &[Vector3<f64>]| v[..n].iter().sum::<Vector3<f64>>() / n as f64;
+    let (fm, tm) = (mean(from), mean(to));
+    let mut h = nalgebra::Matrix3::zeros();
+    for (a, b) in from.iter().zip(to) {
+        h += (a - fm) * (b - tm).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return vec![f64::INFINITY; n];
+    };
+    let mut d = nalgebra::Matrix3::identity();
+    if (v_t.transpose() * u.transpose()).determinant() < 0.0 {
+        d[(2, 2)] = -1.0;
+    }
+    let r = v_t.transpose() * d * u.transpose();
+    from.iter()
+        .zip(to)
+        .map(|(a, b)| (r * (a - fm) + tm - b).norm())
+        .collect()
+}
+
 /// Angle between the orientations of two poses, radians.
 #[must_use]
 pub fn rotation_angle(a: &Isometry3<f64>, b: &Isometry3<f64>) -> f64 {
@@ -275,7 +315,7 @@ pub fn simulate(scenario: &Scenario) -> Result<Outcome> {
     let true_gauge =
         trigait_calibration::gauge::gauge(&truth_tracks(sim.motion(), &calibration), None)?;
     let g = true_gauge.world_from_frame;
-    let scores = calibration
+    let mut scores: Vec<SensorScore> = calibration
         .sensors
         .iter()
         .zip(&truth.sensors)
@@ -297,9 +337,27 @@ pub fn simulate(scenario: &Scenario) -> Result<Outcome> {
                 rotation_error_rad: re,
                 rough_position_error_m: (r_w.translation.vector - t_w.translation.vector).norm(),
                 rough_rotation_error_rad: rotation_angle(&r_w, &t_w),
+                shape_error_m: f64::INFINITY,
             }
         })
         .collect();
+    let placed: Vec<(Vector3<f64>, Vector3<f64>)> = calibration
+        .sensors
+        .iter()
+        .zip(&truth.sensors)
+        .filter_map(|(c, t)| {
+            Some((
+                t.world_from_kinect.translation.vector,
+                c.world_from_kinect?.translation.vector,
+            ))
+        })
+        .collect();
+    if placed.len() == scores.len() {
+        let (from, to): (Vec<_>, Vec<_>) = placed.into_iter().unzip();
+        for (score, e) in scores.iter_mut().zip(rigid_residuals(&from, &to)) {
+            score.shape_error_m = e;
+        }
+    }
 
     // Fusion on a fresh draw: true rig vs calibrated rig (mapped back into the lab frame).
     let lab_from_world = g.inverse();
@@ -388,5 +446,7 @@ pub fn simulate(scenario: &Scenario) -> Result<Outcome> {
         fusion_samples: samples,
         calibrate_secs,
         fusion_pass_secs,
+        tracks,
+        rough,
     })
 }

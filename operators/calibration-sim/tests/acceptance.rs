@@ -17,22 +17,27 @@ fn scenario(motion: &str, rig: &str) -> Scenario {
     }
 }
 
-/// Every pose within `tolerance_m` and 0.5° of the truth, fusion with the calibrated rig
-/// within 1.1× the RMSE with the true rig, and, at the 1 cm acceptance tolerance, nothing
-/// reported as undetermined.
+/// Every pose within `tolerance_m` and 0.5° of the truth, the rig's own geometry (the
+/// sensor centres after the best rigid motion onto the truth) within 5 mm, fusion with the
+/// calibrated rig within 1.1× the RMSE with the true rig, and, at the 1 cm acceptance
+/// tolerance, nothing reported as undetermined.
 ///
-/// The acceptance asks for 1 cm everywhere. Met on the walker and the thesis rig; not yet on
-/// ring-6 (worst sensor 10.0 mm) and the real walks (CMU 07_01 on the thesis rig: 19.9 mm,
-/// 0.45°), whose errors exceed the reported 1σ, so a bias remains (suspects: the floor band's
-/// rocker samples, interpolation of the fast ankles). Those cases are held to 2.5 cm here.
+/// The acceptance asks for 1 cm everywhere. Met on the walker and the thesis rig (4.8 mm) and
+/// Rajagopal on the thesis rig (6.6 mm); not on ring-6 (walker 10.0 mm, CMU 07_01 12.6 mm,
+/// Rajagopal 10.6 mm) and CMU 07_01 on the thesis rig (19.9 mm, 0.45°), held to 2.5 cm here.
+/// In every case the geometry is within 2.8 mm (measured): what is off is the world frame the
+/// walk defines, fixed from the noisy reported joints against the same fix from the true
+/// joints, by up to 0.45° of tilt (CMU on the thesis rig) or of heading (the walker), which
+/// at the sensors' 2–3 m from the origin is the centimetre.
 fn assert_accurate_within(o: &Outcome, tolerance_m: f64) {
     let c = &o.calibration;
     for s in &o.scores {
         eprintln!(
-            "{} {}: {:.1} mm {:.3} deg (σ {:?} mm)",
+            "{} {}: {:.1} mm (shape {:.1} mm) {:.3} deg (σ {:?} mm)",
             o.rig,
             s.id,
             s.position_error_m * 1e3,
+            s.shape_error_m * 1e3,
             s.rotation_error_rad.to_degrees(),
             c.sensors
                 .iter()
@@ -54,6 +59,7 @@ fn assert_accurate_within(o: &Outcome, tolerance_m: f64) {
             "{s:?}"
         );
         assert!(s.position_error_m < tolerance_m, "{} {:?}", o.rig, s);
+        assert!(s.shape_error_m < 0.005, "{} {:?}", o.rig, s);
         assert!(
             s.rotation_error_rad < 0.5f64.to_radians(),
             "{} {:?}",

@@ -38,7 +38,7 @@ pub const RIG_FILE: &str = "rig.yml";
 /// filter's offset (sensor − server, ns) and drift (ppm) then; the true capture instant on the
 /// server clock (ns, simulation only); the joint (snake_case name); its position in Kinect
 /// camera space (m); its tracking state (SDK number: 0 not tracked, 1 inferred, 2 tracked).
-pub const FRAMES_HEADER: &str = "sensor_id,seq,local_stamp_nanos,server_stamp_nanos,uncertainty_nanos,offset_nanos,drift_ppm,true_stamp_nanos,joint,x_m,y_m,z_m,state";
+pub const FRAMES_HEADER: &str = "sensor_id,seq,local_stamp_nanos,server_stamp_nanos,uncertainty_nanos,offset_nanos,drift_ppm,true_stamp_nanos,received_nanos,joint,x_m,y_m,z_m,state";
 /// Columns of [`POSES_FILE`]: the aligned set's sequence number; the fusion instant (server
 /// clock, ns); the joint; its world position (m); √trace of its covariance (m); the sensors
 /// used, `;`-separated.
@@ -78,7 +78,7 @@ fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
 /// Appends the lines of `frame` to `out` (no header).
 pub fn push_frame_lines(out: &mut String, frame: &FrameTiming) {
     let head = format!(
-        "{},{},{},{},{},{},{},{}",
+        "{},{},{},{},{},{},{},{},{}",
         frame.sensor_id,
         frame.seq,
         frame.local_stamp_nanos,
@@ -87,6 +87,7 @@ pub fn push_frame_lines(out: &mut String, frame: &FrameTiming) {
         opt(frame.offset_nanos),
         opt(frame.drift_ppm),
         opt(frame.true_stamp_nanos),
+        opt(frame.received_nanos),
     );
     if frame.joints.is_empty() {
         out.push_str(&head);
@@ -217,12 +218,12 @@ pub fn read_frames(path: &Path) -> Result<Vec<FrameTiming>> {
     // The frame-level cells of the frame being read, to spot a line that contradicts them.
     let mut head = String::new();
     read_lines(path, FRAMES_HEADER, |_, text| {
-        let c: [&str; 13] = cells(text)?;
-        let this_head = c[..8].join(",");
+        let c: [&str; 14] = cells(text)?;
+        let this_head = c[..9].join(",");
         let seq: u64 = number(c[1], "seq")?;
         let local: i64 = number(c[2], "local_stamp_nanos")?;
         let same_frame = frames.last().is_some_and(|f| {
-            f.sensor_id == c[0] && f.seq == seq && f.local_stamp_nanos == local && !c[8].is_empty()
+            f.sensor_id == c[0] && f.seq == seq && f.local_stamp_nanos == local && !c[9].is_empty()
         });
         if same_frame {
             if this_head != head {
@@ -245,19 +246,20 @@ pub fn read_frames(path: &Path) -> Result<Vec<FrameTiming>> {
                 offset_nanos: optional(c[5], "offset_nanos")?,
                 drift_ppm: optional(c[6], "drift_ppm")?,
                 true_stamp_nanos: optional(c[7], "true_stamp_nanos")?,
+                received_nanos: optional(c[8], "received_nanos")?,
                 joints: Vec::new(),
             });
         }
-        if c[8..].iter().all(|s| s.is_empty()) {
+        if c[9..].iter().all(|s| s.is_empty()) {
             return Ok(());
         }
-        let state: u8 = number(c[12], "state")?;
+        let state: u8 = number(c[13], "state")?;
         let sample = JointSample {
-            joint: joint(c[8])?,
+            joint: joint(c[9])?,
             position_in_kinect: Point3::new(
-                number(c[9], "x_m")?,
-                number(c[10], "y_m")?,
-                number(c[11], "z_m")?,
+                number(c[10], "x_m")?,
+                number(c[11], "y_m")?,
+                number(c[12], "z_m")?,
             ),
             state: TrackingState::from_index(state)
                 .ok_or_else(|| format!("column state: {state} is not 0, 1 or 2"))?,
@@ -316,6 +318,57 @@ pub fn read_poses(path: &Path) -> Result<Vec<PoseLine>> {
     Ok(poses)
 }
 
+/// Per-sensor joint tracks of recorded frames for the calibration: every synchronised frame
+/// at its server stamp, seconds after the earliest; frames recorded before their sensor was
+/// synchronised are left out (they have no common time).
+#[must_use]
+pub fn calibration_tracks(frames: &[FrameTiming]) -> Vec<trigait_calibration::SensorTrack> {
+    let origin = frames
+        .iter()
+        .filter_map(|f| f.server_stamp_nanos)
+        .min()
+        .unwrap_or(0);
+    sensor_ids(frames)
+        .into_iter()
+        .map(|id| trigait_calibration::SensorTrack {
+            frames: frames
+                .iter()
+                .filter(|f| f.sensor_id == id)
+                .filter_map(|f| {
+                    Some(trigait_calibration::TrackFrame {
+                        t_secs: (f.server_stamp_nanos? - origin) as f64 * 1e-9,
+                        joints: f.joints.clone(),
+                    })
+                })
+                .collect(),
+            id,
+        })
+        .collect()
+}
+
+/// Writes the calibrated sensors of `calibration` to `path` as a rig file named `name` (the
+/// graphs' `RIG` reads it), creating its directory.
+///
+/// # Errors
+/// [`Error::Io`]: the directory or the file cannot be written.
+pub fn write_calibrated_rig(
+    path: &Path,
+    name: &str,
+    calibration: &trigait_calibration::Calibration,
+) -> Result<()> {
+    let io = |source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let file = trigait_calibration::rig_file(name, calibration);
+    let text = serde_yaml::to_string(&file)
+        .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    std::fs::write(path, text).map_err(io)
+}
+
 /// The sensor ids of `frames`, in the order they first appear.
 #[must_use]
 pub fn sensor_ids(frames: &[FrameTiming]) -> Vec<String> {
@@ -342,6 +395,7 @@ mod tests {
             offset_nanos: (seq > 0).then_some(-35_000_017),
             drift_ppm: (seq > 0).then_some(0.1 + 0.2),
             true_stamp_nanos: None,
+            received_nanos: (seq > 0).then_some(1_700_000_000_040_000_003),
             joints: Joint::LEGS
                 .iter()
                 .take(joints)
@@ -412,7 +466,7 @@ mod tests {
         let err = read_frames(&write(&dir, "short.csv", &short))
             .unwrap_err()
             .to_string();
-        assert!(err.contains("short.csv:2:") && err.contains("13"), "{err}");
+        assert!(err.contains("short.csv:2:") && err.contains("14"), "{err}");
         let err = read_frames(&write(&dir, "head.csv", "a,b\n"))
             .unwrap_err()
             .to_string();

@@ -59,6 +59,11 @@ pub const RECORDED_SERVER_STAMP_NANOS: &str = "trigait.recorded_server_stamp_nan
 /// Metadata key (integer, ns) on a frame replayed from a recording: the uncertainty of
 /// [`RECORDED_SERVER_STAMP_NANOS`] (`frame_timing.uncertainty_nanos`).
 pub const RECORDED_UNCERTAINTY_NANOS: &str = "trigait.recorded_uncertainty_nanos";
+/// Metadata key (integer, ns) on a frame replayed from a recording: the server clock when the
+/// recording's `sync` received it (`frame_timing.received_nanos`); a `sync` with
+/// `TIMESTAMPS: recorded` takes the replayed frames in that order and at that clock reading,
+/// so its deadline decisions are the recorded run's.
+pub const RECORDED_RECEIVED_NANOS: &str = "trigait.recorded_received_nanos";
 /// Metadata key (integer, ns): send time of the newest frame that made a set go out (or the
 /// `sync` clock when a deadline did); forwarded by `trilaterate`, read by `recorder` for the
 /// end-to-end latency.
@@ -84,6 +89,7 @@ pub const METADATA_KEYS: &[&str] = &[
     TRUE_STAMP_NANOS,
     RECORDED_SERVER_STAMP_NANOS,
     RECORDED_UNCERTAINTY_NANOS,
+    RECORDED_RECEIVED_NANOS,
     TRIGGER_SENT_NANOS,
     RIG_FINGERPRINT,
     RIG_NAME,

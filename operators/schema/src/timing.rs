@@ -6,13 +6,16 @@
 //! ```text
 //! Struct { sensor_id: Utf8, seq: UInt64, local_stamp_nanos: Int64 (sensor clock),
 //!          server_stamp_nanos: Int64?, uncertainty_nanos: Int64?, offset_nanos: Int64?,
-//!          drift_ppm: Float64?, true_stamp_nanos: Int64?,
+//!          drift_ppm: Float64?, true_stamp_nanos: Int64?, received_nanos: Int64?,
 //!          joints: List<Struct { joint: UInt8, position_in_kinect_m: FixedSizeList<Float64, 3>,
 //!                                state: UInt8 }> }
 //! ```
 //! The server fields are null while the sensor is not synchronised yet; `true_stamp_nanos` is the
 //! capture instant on the server clock when the source knows it (simulated sensors), so the
-//! mapping error is `server_stamp_nanos − true_stamp_nanos`.
+//! mapping error is `server_stamp_nanos − true_stamp_nanos`. `received_nanos` is the server clock
+//! when `sync` took the frame in: with it a replay hands `sync` the frames in the recorded order
+//! and at the recorded instants, so `sync` makes the same sets (the same deadline decisions) as
+//! in the recorded run.
 
 use arrow_array::types::{Float64Type, Int64Type, UInt64Type};
 use arrow_array::{Array, ArrayRef, Float64Array, Int64Array, StringArray, UInt64Array};
@@ -45,6 +48,8 @@ pub struct FrameTiming {
     pub drift_ppm: Option<f64>,
     /// True capture instant on the server clock, when known (simulation), nanoseconds.
     pub true_stamp_nanos: Option<i64>,
+    /// Server clock when `sync` received the frame, nanoseconds (`None`: not known).
+    pub received_nanos: Option<i64>,
     /// The frame's joints as the sensor sent them (Kinect camera space).
     pub joints: Vec<JointSample>,
 }
@@ -67,6 +72,7 @@ fn fields() -> Fields {
         nullable("offset_nanos", DataType::Int64),
         nullable("drift_ppm", DataType::Float64),
         nullable("true_stamp_nanos", DataType::Int64),
+        nullable("received_nanos", DataType::Int64),
         field("joints", list_of(struct_of(joint_sample_fields()))),
     ])
 }
@@ -98,6 +104,7 @@ impl Message for FrameTiming {
                 ints(|m| m.offset_nanos),
                 b.optionals::<Float64Type>(messages.iter().map(|m| m.drift_ppm)),
                 ints(|m| m.true_stamp_nanos),
+                ints(|m| m.received_nanos),
                 b.list(struct_of(joint_sample_fields()), &lengths, joints)?,
             ],
         )
@@ -113,6 +120,7 @@ impl Message for FrameTiming {
         let uncertainty = top.column::<Int64Array>("uncertainty_nanos")?;
         let offset = top.column::<Int64Array>("offset_nanos")?;
         let truth = top.column::<Int64Array>("true_stamp_nanos")?;
+        let received = top.column::<Int64Array>("received_nanos")?;
         let (joints_list, joints_path) = top.nested("joints")?;
         let (_, items) = decode_joint_samples(joints_list.values().as_ref(), &joints_path)?;
         top.rows()
@@ -126,6 +134,7 @@ impl Message for FrameTiming {
                     offset_nanos: offset.optional(row),
                     drift_ppm: drifts.optional(row),
                     true_stamp_nanos: truth.optional(row),
+                    received_nanos: received.optional(row),
                     joints: items[list_range(joints_list, &joints_path, row)?].to_vec(),
                 })
             })
@@ -151,6 +160,7 @@ mod tests {
                 offset_nanos: Some(100),
                 drift_ppm: Some(12.5),
                 true_stamp_nanos: Some(880),
+                received_nanos: Some(2_000),
                 joints: vec![
                     JointSample {
                         joint: trigait_skeleton::Joint::KneeLeft,
@@ -173,6 +183,7 @@ mod tests {
                 offset_nanos: None,
                 drift_ppm: None,
                 true_stamp_nanos: None,
+                received_nanos: None,
                 joints: Vec::new(),
             },
         ];

@@ -64,18 +64,20 @@ pub struct Captured {
     /// Ground truth since the previous capture, one entry per instant (the truth-sending
     /// simulated sensor only).
     pub truth: Vec<GroundTruth>,
-    /// Where the recording's `sync` placed the frame on the server clock (replayed recordings
-    /// only, and only frames that were synchronised then).
+    /// Where and when the recording's `sync` placed the frame on the server clock (replayed
+    /// recordings only).
     pub recorded: Option<RecordedPlacement>,
 }
 
 /// A recorded frame's place on the recording's server clock.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RecordedPlacement {
-    /// Server-clock capture stamp, ns.
-    pub server_stamp_nanos: i64,
+    /// Server-clock capture stamp, ns (`None`: the sensor was not synchronised then).
+    pub server_stamp_nanos: Option<i64>,
     /// Its uncertainty, ns.
     pub uncertainty_nanos: i64,
+    /// Server clock when the recording's `sync` received the frame, ns (`None`: not recorded).
+    pub received_nanos: Option<i64>,
 }
 
 /// The sensor's clock: the host clock seen through a simulated offset, drift and jitter, drift
@@ -485,12 +487,11 @@ impl RecordedSensor {
             frame,
             true_stamp_nanos: recorded.true_stamp_nanos,
             truth: Vec::new(),
-            recorded: recorded
-                .server_stamp_nanos
-                .map(|server_stamp_nanos| RecordedPlacement {
-                    server_stamp_nanos,
-                    uncertainty_nanos: recorded.uncertainty_nanos.unwrap_or(0),
-                }),
+            recorded: Some(RecordedPlacement {
+                server_stamp_nanos: recorded.server_stamp_nanos,
+                uncertainty_nanos: recorded.uncertainty_nanos.unwrap_or(0),
+                received_nanos: recorded.received_nanos,
+            }),
         })
     }
 }
@@ -611,6 +612,7 @@ mod tests {
             offset_nanos: None,
             drift_ppm: None,
             true_stamp_nanos: None,
+            received_nanos: Some(server.unwrap_or(origin) + 2_000_000),
             joints: Vec::new(),
         };
         let recording = vec![
@@ -627,15 +629,24 @@ mod tests {
         // The unsynchronised first frame is placed with the sensor's first mapping.
         assert_eq!(live.next_due(), Some(start));
         let c = live.capture(&mut clock).unwrap();
-        assert_eq!((c.frame.seq, c.recorded), (0, None));
+        assert_eq!(c.frame.seq, 0);
+        assert_eq!(
+            c.recorded,
+            Some(RecordedPlacement {
+                server_stamp_nanos: None,
+                uncertainty_nanos: 0,
+                received_nanos: Some(origin + 2_000_000),
+            })
+        );
         assert_eq!(live.next_due(), Some(start + 33_333_333));
         let c = live.capture(&mut clock).unwrap();
         assert_eq!(c.frame.local_stamp_nanos, start + 33_333_333);
         assert_eq!(
             c.recorded,
             Some(RecordedPlacement {
-                server_stamp_nanos: origin + 33_333_333,
-                uncertainty_nanos: 40_000
+                server_stamp_nanos: Some(origin + 33_333_333),
+                uncertainty_nanos: 40_000,
+                received_nanos: Some(origin + 35_333_333),
             })
         );
         live.capture(&mut clock).unwrap();
