@@ -7,6 +7,7 @@
 //! the CLI reads) and the final `summary.json` whole.
 //! Configuration: [`config`]; entity paths: [`viz`].
 
+mod blueprint;
 mod config;
 mod export;
 mod gait;
@@ -69,7 +70,7 @@ impl<'a> Input<'a> {
 
 /// The recording and what is accumulated for the files written at the end.
 struct Recorder {
-    rec: rerun::RecordingStream,
+    rec: viz::Viz,
     gait: gait::Gait,
     stats: Stats,
     ring: Ring,
@@ -85,7 +86,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     std::fs::create_dir_all(&config.out_dir)
         .with_context(|| format!("recorder: creating OUTPUT_DIR={}", config.out_dir.display()))?;
     let rec = viz::open(&config)?;
-    viz::send_blueprint(&rec).context("recorder: sending the default blueprint")?;
+    viz::send_blueprint(&rec, &config.rig).context("recorder: sending the default blueprint")?;
     viz::log_static(&rec, &config.rig).context("recorder: logging the rig")?;
     let mut r = Recorder {
         gait: gait::Gait::new(&rec).context("recorder: logging the gait styles")?,
@@ -172,7 +173,7 @@ impl Recorder {
             .collect();
         let sent = get_integer_param(params, ports::TRIGGER_SENT_NANOS);
         let logged = viz::log_pose(&self.rec, &pose, &truth, sent.map(|sent| now - sent))
-            .and_then(|()| self.gait.push(&self.rec, &pose));
+            .and_then(|()| self.gait.push(&pose));
         self.ring.push(&pose);
         self.trajectory.push(&pose);
         if let Some(recording) = &mut self.recording {
@@ -256,7 +257,7 @@ impl Recorder {
             );
         }
         let mut summary = self.stats.summary(now_nanos(), true);
-        let (gait_report, gait_logged) = self.gait.finish(&self.rec);
+        let (gait_report, gait_logged) = self.gait.finish();
         summary.gait = Some(gait_report);
         if let Err(e) = gait_logged {
             error!("rerun logging of the gait report failed: {e:#}");
