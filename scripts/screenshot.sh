@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Screenshots of the rerun viewer showing a recording, taken headless, for the README (docs/).
-#   scripts/screenshot.sh out/trigait.rrd docs/viewer.png [docs/viewer-trajectories.png]
-# The first shot is the default layout once playback has reached the end of the recording; the
-# optional second one shows the tab with the per-axis joint trajectories.
+#   scripts/screenshot.sh out/trigait.rrd docs/
+# writes docs/viewer.png (the default layout once playback has reached the end of the
+# recording), docs/viewer-flexion.png (its knee and hip flexion charts at full size) and
+# docs/viewer-sync.png (the clock sync tab). It fails when the viewer warns that a keypoint
+# connection of the annotation context could not be resolved.
 #
 # Needs an X server without a screen and software Vulkan (Debian: `apt-get install xvfb
 # mesa-vulkan-drivers imagemagick xdotool`; GL software rendering does not start the viewer,
@@ -10,12 +12,12 @@
 # not run it. The viewer is `.venv/bin/rerun` (scripts/venv.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-rrd="${1:?usage: scripts/screenshot.sh FILE.rrd OUT.png [TRAJECTORIES.png]}"
-out="${2:?usage: scripts/screenshot.sh FILE.rrd OUT.png [TRAJECTORIES.png]}"
-second="${3:-}"
+rrd="${1:?usage: scripts/screenshot.sh FILE.rrd OUT_DIR}"
+dir="${2:?usage: scripts/screenshot.sh FILE.rrd OUT_DIR}"
+mkdir -p "$dir"
 display="${SCREENSHOT_DISPLAY:-:97}"
 wait_secs="${SCREENSHOT_WAIT_SECS:-100}"
-for tool in Xvfb import xdotool; do
+for tool in Xvfb import convert xdotool; do
   command -v "$tool" >/dev/null || { echo "screenshot.sh: $tool is missing (see the comment at the top)" >&2; exit 1; }
 done
 
@@ -44,15 +46,20 @@ DISPLAY="$display" xdotool windowmove "$win" 0 0 windowsize "$win" 1920 1080
 # takes about a minute): wait past the end, with the pointer off the views.
 DISPLAY="$display" xdotool mousemove 1919 1079
 sleep "$wait_secs"
-DISPLAY="$display" import -window root -resize 1600x900 -quality 95 "PNG8:$out"
-echo "wrote $out ($(du -k "$out" | cut -f1) kB)"
-if [ -n "$second" ]; then
-  # The first tab of the lower right tab bar (joint trajectories), clicked where the layout puts it.
-  DISPLAY="$display" xdotool mousemove "${TAB_X:-1110}" "${TAB_Y:-560}" click 1 mousemove 1919 1079
-  sleep 3
-  DISPLAY="$display" import -window root -resize 1600x900 -quality 95 "PNG8:$second"
-  echo "wrote $second ($(du -k "$second" | cut -f1) kB)"
-fi
+shot="$(mktemp --suffix=.png)"
+DISPLAY="$display" import -window root "$shot"
+convert "$shot" -resize 1600x900 "PNG8:$dir/viewer.png"
+# The flexion charts: the middle of the right column (the layout's shares put them there).
+convert "$shot" -crop 900x250+1020+335 +repage "PNG8:$dir/viewer-flexion.png"
+# The second tab of the lower right tab bar (clock sync).
+DISPLAY="$display" xdotool mousemove "${TAB_X:-1259}" "${TAB_Y:-582}" click 1 mousemove 1919 1079
+sleep 5
+DISPLAY="$display" import -window root "$shot"
+convert "$shot" -resize 1600x900 "PNG8:$dir/viewer-sync.png"
+rm -f "$shot"
+for f in viewer viewer-flexion viewer-sync; do
+  echo "wrote $dir/$f.png ($(du -k "$dir/$f.png" | cut -f1) kB)"
+done
 if grep -q "could not be resolved" "$log"; then
   echo "screenshot.sh: the viewer warned about the annotation context:" >&2
   grep "could not be resolved" "$log" >&2

@@ -151,8 +151,8 @@ fn eye(rig: &Rig) -> ([f32; 3], [f32; 3]) {
     }
     let centre = (lo + hi) / 2.0;
     let radius = ((hi - lo) / 2.0).norm().max(1.0);
-    let dir = nalgebra::Vector3::new(-0.3, -1.0, 0.6).normalize();
-    let eye = centre + dir * radius * 1.4;
+    let dir = nalgebra::Vector3::new(-0.2, -1.0, 0.6).normalize();
+    let eye = centre + dir * radius * 1.5;
     let f = |v: nalgebra::Vector3<f64>| [v.x as f32, v.y as f32, v.z as f32];
     (f(eye), f(centre))
 }
@@ -164,7 +164,7 @@ fn chart_bounds(degrees: (f64, f64)) -> VisualBounds2D {
         x_range: [-12.0, 104.0].into(),
         y_range: [
             f64::from(viz::chart_y(hi)) - 3.0,
-            f64::from(viz::chart_y(lo)) + 6.0,
+            f64::from(viz::chart_y(lo)) + 10.0,
         ]
         .into(),
     })
@@ -320,7 +320,7 @@ fn build(rec: &RecordingStream, rig: &Rig) -> eyre::Result<(Vec<LogMsg>, Vec<Vie
         ContainerKind::Vertical,
         "joint trajectories per axis",
         axes,
-        &[1.6, 1.0, 1.0],
+        &[2.1, 1.0, 1.0],
     )?;
     let offset = w.view(
         "TimeSeries",

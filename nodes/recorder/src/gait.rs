@@ -27,8 +27,8 @@ use std::collections::BTreeMap;
 
 use rerun::Color;
 use trigait_gait::{
-    CYCLE_SAMPLES, EventKind, Foot, LiveGait, LiveGaitParams, LiveReport, Stat, Summary,
-    TimedEvent, flexion_cycles,
+    CYCLE_SAMPLES, EventKind, EventMethod, Foot, LiveGait, LiveGaitParams, LiveReport, Stat,
+    Summary, TimedEvent, flexion_cycles,
 };
 use trigait_schema::FusedPose;
 
@@ -147,6 +147,7 @@ impl Gait {
             drawn_until: BTreeMap::new(),
             knee: BTreeMap::new(),
             hip: BTreeMap::new(),
+            method: None,
         };
         let worker = std::thread::Builder::new()
             .name("gait".into())
@@ -190,6 +191,8 @@ struct Worker {
     drawn_until: BTreeMap<Foot, i64>,
     knee: BTreeMap<Foot, Curves>,
     hip: BTreeMap<Foot, Curves>,
+    /// The event detector the last analysis chose (the parameters' `Auto` picks one).
+    method: Option<EventMethod>,
 }
 
 impl Worker {
@@ -266,12 +269,13 @@ impl Worker {
         if let Some(t) = self.last_stamp_nanos {
             viz.set_time(t);
         }
+        self.method = Some(analysis.method);
         if !all {
             viz.log(
                 viz::PARAMETERS,
                 &rerun::TextDocument::from_markdown(parameter_table(
                     &analysis.summary,
-                    analysis.method.name(),
+                    analysis.method,
                     "so far",
                 )),
             )?;
@@ -304,7 +308,9 @@ impl Worker {
             self.viz.set_time(t);
         }
         let text = match (&report.parameters, &report.reason) {
-            (Some(summary), _) => parameter_table(summary, report.method.name(), "whole run"),
+            (Some(summary), _) => {
+                parameter_table(summary, self.method.unwrap_or(report.method), "whole run")
+            }
             (None, Some(reason)) => format!("No gait parameters for this run: {reason}."),
             (None, None) => "No gait parameters for this run.".to_owned(),
         };
@@ -317,7 +323,12 @@ impl Worker {
 /// The parameter table as markdown: one row per parameter with its unit, mean, SD, left and
 /// right means and the left/right asymmetry; `scope` says what the strides cover.
 #[must_use]
-pub fn parameter_table(summary: &Summary, method: &str, scope: &str) -> String {
+pub fn parameter_table(summary: &Summary, method: EventMethod, scope: &str) -> String {
+    let method = match method {
+        EventMethod::Coordinate => "the coordinate method (Zeni et al. 2008)",
+        EventMethod::Velocity => "the foot-velocity method (after Ghoussayni et al. 2004)",
+        EventMethod::Auto => "the method chosen for walking or running",
+    };
     let rows: [(&str, &Stat, usize); 9] = [
         ("stride length (m)", &summary.stride_length_m, 3),
         ("step length (m)", &summary.step_length_m, 3),
@@ -337,8 +348,8 @@ pub fn parameter_table(summary: &Summary, method: &str, scope: &str) -> String {
         v.map_or_else(|| "–".to_owned(), |v| format!("{v:.digits$}"))
     };
     let mut out = format!(
-        "**{} strides** ({} left, {} right) and {} steps, {scope}; events by the {method} \
-         method (Zeni et al. 2008). Asymmetry: (left − right) / mean.\n\n\
+        "**{} strides** ({} left, {} right) and {} steps, {scope}; events by {method}. \
+         Asymmetry: (left − right) / mean.\n\n\
          | parameter | mean | SD | left | right | asymmetry (%) |\n\
          |---|---:|---:|---:|---:|---:|\n",
         summary.strides, summary.left_strides, summary.right_strides, summary.steps
@@ -372,7 +383,7 @@ fn chart_frame(viz: &Viz, root: &str, (lo, hi): (f64, f64)) -> eyre::Result<()> 
         lines.push(vec![[x, viz::chart_y(lo)], [x, viz::chart_y(hi)]]);
         colours.push(grey);
         if i % 2 == 0 {
-            tick_at.push([x, viz::chart_y(lo) + 3.0]);
+            tick_at.push([x, viz::chart_y(lo) + 2.5]);
             tick_text.push(format!("{x:.0} %"));
         }
     }
@@ -461,7 +472,7 @@ mod tests {
     #[test]
     fn parameter_table_has_units_and_dashes() {
         let empty = trigait_gait::summarise(&[]);
-        let t = parameter_table(&empty, "coordinate", "so far");
+        let t = parameter_table(&empty, EventMethod::Coordinate, "so far");
         for head in [
             "stride length (m)",
             "cadence (steps/min)",
