@@ -21,7 +21,8 @@ use rerun::external::re_sdk_types::blueprint::archetypes::{
 };
 use rerun::external::re_sdk_types::blueprint::components::{
     ActiveTab, AutoLayout, AutoViews, BackgroundKind, ColumnShare, ContainerKind, Corner2D,
-    Eye3DKind, IncludedContent, PanelState, QueryExpression, RootContainer, RowShare, ViewClass,
+    Eye3DKind, IncludedContent, PanelState, PlayState, QueryExpression, RootContainer, RowShare,
+    ViewClass,
 };
 use rerun::external::re_sdk_types::datatypes::{Bool, Float32, Range2D, Uuid};
 use rerun::{AsComponents, components};
@@ -393,7 +394,9 @@ fn build(rec: &RecordingStream, rig: &Rig) -> eyre::Result<(Vec<LogMsg>, Vec<Vie
         "time_panel",
         &TimePanelBlueprint::new()
             .with_state(PanelState::Collapsed)
-            .with_timeline(viz::TIME),
+            .with_timeline(viz::TIME)
+            // At the newest data: the end of a file, the present of a live stream.
+            .with_play_state(PlayState::Following),
     )?;
     w.rec.flush_blocking().ok();
     Ok((storage.take(), w.views))

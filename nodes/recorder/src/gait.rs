@@ -383,7 +383,7 @@ fn chart_frame(viz: &Viz, root: &str, (lo, hi): (f64, f64)) -> eyre::Result<()> 
         lines.push(vec![[x, viz::chart_y(lo)], [x, viz::chart_y(hi)]]);
         colours.push(grey);
         if i % 2 == 0 {
-            tick_at.push([x, viz::chart_y(lo) + 2.5]);
+            tick_at.push([x, viz::chart_y(lo) + 0.5]);
             tick_text.push(format!("{x:.0} %"));
         }
     }
@@ -396,7 +396,9 @@ fn chart_frame(viz: &Viz, root: &str, (lo, hi): (f64, f64)) -> eyre::Result<()> 
         } else {
             grey
         });
-        tick_at.push([-6.0, viz::chart_y(deg)]);
+        // rerun draws a label under its point: raise it by about half a line at the default
+        // zoom so it sits beside its grid line.
+        tick_at.push([-6.0, viz::chart_y(deg) - 4.0]);
         tick_text.push(format!("{deg:.0}°"));
     }
     viz.log_static(
