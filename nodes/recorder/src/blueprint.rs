@@ -401,3 +401,63 @@ fn build(rec: &RecordingStream, rig: &Rig) -> eyre::Result<(Vec<LogMsg>, Vec<Vie
     w.rec.flush_blocking().ok();
     Ok((storage.take(), w.views))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The layout holds the gait lab's views once each, ids are well-formed UUIDs, and the
+    /// messages start with the blueprint store's info (what the activation names).
+    #[test]
+    fn layout_has_every_view_once() {
+        let rec = rerun::RecordingStreamBuilder::new("trigait-test")
+            .buffered()
+            .unwrap();
+        let rig = Rig::from_spec("ring-5").unwrap();
+        let (msgs, views) = build(&rec, &rig).unwrap();
+        assert!(matches!(msgs.first(), Some(LogMsg::SetStoreInfo(_))));
+        let origins: Vec<(&str, &str)> =
+            views.iter().map(|v| (v.class, v.origin.as_str())).collect();
+        for want in [
+            ("3D", "world"),
+            ("TextDocument", viz::KEY),
+            ("StateTimeline", viz::PHASE),
+            ("TimeSeries", viz::EVENTS),
+            ("TextDocument", viz::PARAMETERS),
+            ("2D", viz::KNEE),
+            ("2D", viz::HIP),
+            ("TimeSeries", "trajectories/x"),
+            ("TimeSeries", "trajectories/y"),
+            ("TimeSeries", "trajectories/z"),
+            ("TimeSeries", viz::SYNC_OFFSET),
+            ("TimeSeries", viz::SYNC_ERROR),
+            ("TimeSeries", viz::LATENCY_ROOT),
+        ] {
+            assert_eq!(
+                origins.iter().filter(|o| **o == want).count(),
+                1,
+                "{want:?} in {origins:?}"
+            );
+        }
+        assert_eq!(views.len(), 13);
+        let id = uuid_string(&[0xab; 16]);
+        assert_eq!(id.len(), 36);
+        assert_eq!(id.matches('-').count(), 4);
+        // Every sensor of the rig is inside the eye's view: the eye is farther from the target
+        // than any sensor.
+        let (eye, target) = eye(&rig);
+        let d = |p: [f64; 3]| {
+            let v: Vec<f64> = p
+                .iter()
+                .zip(target)
+                .map(|(a, b)| a - f64::from(b))
+                .collect();
+            v.iter().map(|x| x * x).sum::<f64>().sqrt()
+        };
+        let eye_d = d(eye.map(f64::from));
+        for s in &rig.sensors {
+            let p = s.position();
+            assert!(d([p.x, p.y, p.z]) < eye_d, "{} is behind the eye", s.id);
+        }
+    }
+}
