@@ -513,12 +513,12 @@ fn maps_written(written: &[Vec<WrittenMap>], dir: Option<&Path>) -> String {
     )
 }
 
-fn print_json(value: &impl Serialize) -> eyre::Result<()> {
+pub(crate) fn print_json(value: &impl Serialize) -> eyre::Result<()> {
     let text = serde_json::to_string_pretty(value).wrap_err("serialising the report")?;
     print_text(&(text + "\n"))
 }
 
-fn print_text(text: &str) -> eyre::Result<()> {
+pub(crate) fn print_text(text: &str) -> eyre::Result<()> {
     let mut stdout = std::io::stdout().lock();
     stdout
         .write_all(text.as_bytes())

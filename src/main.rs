@@ -16,6 +16,7 @@ mod devices;
 mod eval;
 mod export;
 mod gait;
+mod legs;
 mod ranges;
 mod report;
 
@@ -46,6 +47,8 @@ enum Command {
     Devices(devices::Args),
     /// Calibrate the rig from a walk: every sensor's pose, its uncertainty, and why when undetermined.
     Calibrate(calibrate::Args),
+    /// Lower-body skeleton from recorded depth frames (no Kinect SDK): person mask, hips, knees, ankles.
+    Legs(legs::Args),
 }
 
 fn run(args: Args) -> eyre::Result<()> {
@@ -58,6 +61,7 @@ fn run(args: Args) -> eyre::Result<()> {
         Command::Report(args) => report::run(&args),
         Command::Devices(args) => devices::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
+        Command::Legs(args) => legs::run(&args),
     }
 }
 

@@ -182,6 +182,51 @@ pub fn log_report(
     Ok(logged)
 }
 
+/// Entity of a leg tracker's debugging output: `legs/<sensor>/<name>`.
+#[must_use]
+pub fn legs_entity(sensor: &str, name: &str) -> String {
+    format!("legs/{sensor}/{name}")
+}
+
+/// Logs what a leg tracker made of `sensor`'s depth frame `seq` (on [`TIMELINE`]), for
+/// debugging: the person mask as an 8-bit image (`legs/<sensor>/person_mask`, 255 = person;
+/// nothing when no person was found), the fitted joints as camera-space points
+/// (`legs/<sensor>/joints`, metres, labelled) and each leg's hip → knee → ankle → foot
+/// polyline (`legs/<sensor>/model`).
+///
+/// # Errors
+/// rerun refused a log call (a closed sink).
+pub fn log_legs(
+    rec: &RecordingStream,
+    sensor: &str,
+    seq: u64,
+    person_mask: &[bool],
+    joints: &[(String, [f32; 3])],
+    chains: &[Vec<[f32; 3]>],
+) -> Result<(), RecordingStreamError> {
+    rec.set_time_sequence(TIMELINE, i64::try_from(seq).unwrap_or(i64::MAX));
+    if person_mask.len() == WIDTH * HEIGHT {
+        let bytes: Vec<u8> = person_mask
+            .iter()
+            .map(|p| if *p { 255 } else { 0 })
+            .collect();
+        rec.log(
+            legs_entity(sensor, "person_mask"),
+            &rerun::Image::from_l8(bytes, [WIDTH as u32, HEIGHT as u32]),
+        )?;
+    }
+    rec.log(
+        legs_entity(sensor, "joints"),
+        &rerun::Points3D::new(joints.iter().map(|(_, p)| *p))
+            .with_labels(joints.iter().map(|(name, _)| name.clone())),
+    )?;
+    rec.log(
+        legs_entity(sensor, "model"),
+        &rerun::LineStrips3D::new(chains.iter().cloned()),
+    )?;
+    Ok(())
+}
+
 /// A legend as markdown: what the map shows, its discrete colours and its colour scale.
 #[must_use]
 pub fn legend_markdown(legend: &MapLegend) -> String {
@@ -222,6 +267,20 @@ mod tests {
             a.push(&sim.next_frame());
         }
         a.report_and_maps().unwrap()
+    }
+
+    /// A tracked frame logs its mask, joints and model; an empty mask logs no image.
+    #[test]
+    fn logs_a_tracked_frame() {
+        let (rec, storage) = rerun::RecordingStreamBuilder::new("test").memory().unwrap();
+        let mask = vec![true; WIDTH * HEIGHT];
+        let joints = vec![("knee_left".to_owned(), [0.1, -0.4, 2.0])];
+        let chains = vec![vec![[0.1, 0.1, 2.0], [0.1, -0.4, 2.0]]];
+        log_legs(&rec, "k1", 3, &mask, &joints, &chains).unwrap();
+        log_legs(&rec, "k1", 4, &[], &[], &[]).unwrap();
+        rec.flush_blocking().unwrap();
+        assert!(!storage.take().is_empty());
+        assert_eq!(legs_entity("k2", "joints"), "legs/k2/joints");
     }
 
     /// A wall sequence logs the five maps and the scalars of every metric it has; a one-frame

@@ -2,6 +2,7 @@
 //! library is linked as well (`freenect2` wins), these are no-ops, so code written against the
 //! fake still builds; check [`crate::FAKE_LIBRARY`] before relying on them.
 
+#[cfg(fake_library)]
 use std::ffi::{c_char, c_int};
 
 #[cfg(fake_library)]

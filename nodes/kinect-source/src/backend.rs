@@ -18,6 +18,8 @@ use crate::config::{self, Backend, Config};
 pub enum Source {
     /// The simulator playing an endless walk.
     Sim(Box<SimulatedSensor>),
+    /// The simulator's body rendered as depth.
+    BodyDepth(Box<crate::body_depth::BodyDepthSensor>),
     /// A recorded SDK skeleton file.
     Replay(ReplayedSensor),
     /// One sensor of a trial recording.
@@ -52,6 +54,38 @@ impl Source {
     /// Builds the configured backend; errors name the node and the key at fault.
     pub fn new(config: &Config, now: i64) -> eyre::Result<Self> {
         match &config.backend {
+            Backend::BodyDepth { motion, walk_secs } => {
+                let sim = Self::new(
+                    &Config {
+                        backend: Backend::Sim {
+                            motion: motion.clone(),
+                            walk_secs: *walk_secs,
+                        },
+                        ..config.clone()
+                    },
+                    now,
+                )?;
+                let Source::Sim(sim) = sim else {
+                    bail!(
+                        "kinect-source: the simulated source of {}=body-depth",
+                        config::BACKEND
+                    )
+                };
+                let lap = load_lap(motion, *walk_secs, config.all_joints)
+                    .with_context(|| format!("kinect-source: {}={motion:?}", config::MOTION))?;
+                let seed = config.seed
+                    ^ 0xb0d7_u64.rotate_left(23)
+                    ^ crate::depth::hash(&config.sensor_id);
+                Ok(Source::BodyDepth(Box::new(
+                    crate::body_depth::BodyDepthSensor::new(
+                        *sim,
+                        lap,
+                        &config.rig,
+                        &config.sensor_id,
+                        seed,
+                    )?,
+                )))
+            }
             Backend::Sim { motion, walk_secs } => {
                 let lap = load_lap(motion, *walk_secs, config.all_joints)
                     .with_context(|| format!("kinect-source: {}={motion:?}", config::MOTION))?;
@@ -101,7 +135,7 @@ impl Source {
                 }
                 bail!(
                     "kinect-source: {}=freenect2, but this binary was not built with freenect2 \
-                     (rebuild with `cargo build --release -p trigait-kinect-source-node --features freenect2`)",
+                     (rebuild with `cargo build --release --workspace --features trigait-kinect-source-node/freenect2`; see the README)",
                     config::BACKEND
                 )
             }
@@ -113,6 +147,7 @@ impl Source {
     pub fn next_due(&self) -> Option<i64> {
         match self {
             Source::Sim(s) => Some(s.next_due()),
+            Source::BodyDepth(s) => Some(s.next_due()),
             Source::Replay(r) => r.next_due(),
             Source::Recording(r) => r.next_due(),
         }
@@ -126,10 +161,20 @@ impl Source {
         }
     }
 
+    /// The depth frame of the last capture, for a source that sends depth instead of
+    /// skeleton frames (`body-depth`); `None` for the others.
+    pub fn take_depth(&mut self) -> Option<trigait_schema::DepthFrameMessage> {
+        match self {
+            Source::BodyDepth(s) => s.take_depth(),
+            _ => None,
+        }
+    }
+
     /// Captures the frame due now; `clock` stamps it.
     pub fn capture(&mut self, now: i64, clock: &mut SensorClock) -> Option<Captured> {
         match self {
             Source::Sim(s) => Some(s.capture(clock)),
+            Source::BodyDepth(s) => Some(s.capture(now, clock)),
             Source::Replay(r) => r.capture(now, clock),
             Source::Recording(r) => r.capture(clock),
         }

@@ -4,8 +4,8 @@
 //! |---|---|---|---|
 //! | `SENSOR_ID` | string | required | the sensor's id in the rig file (`k1`) |
 //! | `RIG` | `thesis`, `ring-N` or a YAML path | `thesis` | sensor poses (the simulator needs them) |
-//! | `BACKEND` | `sim`, `replay`, `recording`, `freenect2` | `sim` | where frames come from |
-//! | `MOTION` | `walker` or a C3D/TRC/CSV path | `walker` | what the simulated subject does (played there and back, endlessly) |
+//! | `BACKEND` | `sim`, `body-depth`, `replay`, `recording`, `freenect2` | `sim` | where frames come from (`body-depth`: simulated depth of the body instead of skeleton frames, [`crate::body_depth`]) |
+//! | `MOTION` | `walker` or a C3D/TRC/CSV path | `walker` | what the simulated subject does (played there and back, endlessly; `sim` and `body-depth`) |
 //! | `WALK_SECS` | seconds | `2.5` | one-way duration of the embedded walker |
 //! | `JOINTS` | `legs` or `all` | `legs` | joints reported |
 //! | `SEED` | integer | `1` | noise seed (each sensor has its own stream) |
@@ -86,6 +86,13 @@ pub enum Backend {
         /// One-way walker duration, seconds.
         walk_secs: f64,
     },
+    /// The simulator's body rendered as depth (`depth` output, no skeleton frames).
+    BodyDepth {
+        /// `walker` or a motion file.
+        motion: String,
+        /// One-way walker duration, seconds.
+        walk_secs: f64,
+    },
     /// A recorded SDK skeleton file.
     Replay {
         /// The file.
@@ -111,6 +118,8 @@ pub enum Backend {
 pub enum BackendName {
     /// `sim`.
     Sim,
+    /// `body-depth`.
+    BodyDepth,
     /// `replay`.
     Replay,
     /// `recording`.
@@ -124,10 +133,11 @@ impl FromStr for BackendName {
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s {
             "sim" => Ok(Self::Sim),
+            "body-depth" => Ok(Self::BodyDepth),
             "replay" => Ok(Self::Replay),
             "recording" => Ok(Self::Recording),
             "freenect2" => Ok(Self::Freenect2),
-            _ => Err("expected `sim`, `replay`, `recording` or `freenect2`"),
+            _ => Err("expected `sim`, `body-depth`, `replay`, `recording` or `freenect2`"),
         }
     }
 }
@@ -253,17 +263,25 @@ impl Config {
             .trim()
             .to_owned();
         let rig = env_rig(NODE, &lookup)?;
+        let walk_secs = || {
+            env_number_where(
+                NODE,
+                &lookup,
+                WALK_SECS,
+                2.5,
+                |v| v > 0.5,
+                "a duration above 0.5 s",
+            )
+        };
+        let motion = || lookup(MOTION).unwrap_or_else(|| "walker".into());
         let backend = match env_parsed(NODE, &lookup, BACKEND, BackendName::Sim)? {
             BackendName::Sim => Backend::Sim {
-                motion: lookup(MOTION).unwrap_or_else(|| "walker".into()),
-                walk_secs: env_number_where(
-                    NODE,
-                    &lookup,
-                    WALK_SECS,
-                    2.5,
-                    |v| v > 0.5,
-                    "a duration above 0.5 s",
-                )?,
+                motion: motion(),
+                walk_secs: walk_secs()?,
+            },
+            BackendName::BodyDepth => Backend::BodyDepth {
+                motion: motion(),
+                walk_secs: walk_secs()?,
             },
             BackendName::Replay => Backend::Replay {
                 file: lookup(REPLAY_FILE).map(PathBuf::from).ok_or_else(|| {
@@ -332,7 +350,6 @@ impl Config {
         Ok(Config {
             sensor_id,
             rig,
-            backend,
             all_joints,
             seed: env_value(NODE, &lookup, SEED, |_| true, "a whole number")?.unwrap_or(1),
             frame_rate_hz,
@@ -347,7 +364,15 @@ impl Config {
                 .is_some()
                 .then(|| env_flag(NODE, &lookup, GROUND_TRUTH, false))
                 .transpose()?,
-            depth: crate::depth::DepthConfig::from_lookup(&lookup)?,
+            depth: match (&backend, crate::depth::DepthConfig::from_lookup(&lookup)?) {
+                (Backend::BodyDepth { .. }, Some(_)) => bail!(
+                    "{NODE}: {}=body-depth sends its depth frames on `depth` itself; {} (the lab-target depth stream) cannot be set with it",
+                    BACKEND,
+                    crate::depth::DEPTH_RATE_HZ
+                ),
+                (_, depth) => depth,
+            },
+            backend,
         })
     }
 

@@ -283,7 +283,8 @@ impl DepthStream {
     }
 }
 
-fn hash(id: &str) -> u64 {
+/// A stable hash of a sensor id (FNV-1a), to give each sensor its own noise stream.
+pub(crate) fn hash(id: &str) -> u64 {
     id.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
         (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
     })

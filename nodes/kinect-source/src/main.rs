@@ -1,10 +1,12 @@
 //! `kinect-source`: one Kinect v2 sensor in the dataflow. Sends a `skeleton_frame` per capture
-//! on `frame` (sensor clock), answers `ntp_request`s addressed to it with its own clock on
+//! on `frame` (sensor clock; with `BACKEND: body-depth` a `depth_frame` on `depth` instead,
+//! [`body_depth`]), answers `ntp_request`s addressed to it with its own clock on
 //! `ntp_reply`, and — when simulated, from the one source of the graph that sends it (by default
 //! the rig's first sensor) — the world-frame ground truth on `ground_truth`.
 //! Configuration: [`config`].
 
 mod backend;
+mod body_depth;
 mod config;
 mod depth;
 mod freenect2;
@@ -78,7 +80,11 @@ pub fn run(
             let last = config
                 .stop_after_nanos
                 .is_some_and(|run| due - first >= run);
-            send_capture(&mut node, &frame_out, &truth_out, &stamp, last, captured)?;
+            let out = match source.take_depth() {
+                Some(depth) => Out::Depth(&depth_out, depth),
+                None => Out::Frame(&frame_out),
+            };
+            send_capture(&mut node, out, &truth_out, &stamp, last, captured)?;
             counters.frames_sent += 1;
             if last {
                 info!(
@@ -145,9 +151,16 @@ pub fn run(
     Ok(counters)
 }
 
+/// Where a capture goes: its skeleton frame on `frame`, or (body depth) a depth frame on
+/// `depth` in its place, with the same metadata.
+enum Out<'a> {
+    Frame(&'a DataId),
+    Depth(&'a DataId, trigait_schema::DepthFrameMessage),
+}
+
 fn send_capture(
     node: &mut DoraNode,
-    frame_out: &DataId,
+    out: Out<'_>,
     truth_out: &DataId,
     stamp: &RigStamp,
     last: bool,
@@ -175,11 +188,20 @@ fn send_capture(
             Parameter::Integer(r.uncertainty_nanos),
         );
     }
-    let array = SkeletonFrameMessage::from(captured.frame)
-        .encode()
-        .context("encoding a skeleton frame")?;
-    node.send_output(frame_out.clone(), params, array)
-        .context("kinect-source: sending frame")?;
+    match out {
+        Out::Frame(frame_out) => {
+            let array = SkeletonFrameMessage::from(captured.frame)
+                .encode()
+                .context("encoding a skeleton frame")?;
+            node.send_output(frame_out.clone(), params, array)
+                .context("kinect-source: sending frame")?;
+        }
+        Out::Depth(depth_out, depth) => {
+            let array = depth.encode().context("encoding a depth frame")?;
+            node.send_output(depth_out.clone(), params, array)
+                .context("kinect-source: sending depth")?;
+        }
+    }
     if !captured.truth.is_empty() {
         let array = GroundTruth::encode_many(&captured.truth).context("encoding ground truth")?;
         node.send_output(truth_out.clone(), MetadataParameters::default(), array)

@@ -9,7 +9,7 @@
 //! | `RING_CAPACITY` | integer | `1000` | positions kept per joint (thesis: 1000) for the thesis text export |
 //! | `RECORD_FRAMES` | bool | `true` | also write the raw recording: `frames.csv` (every frame of every sensor, sensor-local and server time), `poses.csv` (every fused joint at its absolute instant) and `rig.yml` ([`crate::recording`]) |
 //! | `WARMUP_SECS` | seconds ≥ 0 | `1` | poses this soon after the first are warm-up: their latency is reported apart from the steady state (`summary.json`: `warmup`) |
-//! | `LIVE_UPDATE_SECS` | seconds, 0 or 0.1–60 | `0` (off) | bring `trajectory.csv`, `summary.json`, the raw recording and the `.rrd` up to date this often while the run goes, so a killed recorder loses at most that much; off by default because the writes run on the event loop and a disk busy writing back (after a large build) stalled the poses behind them by up to 0.4 s |
+//! | `LIVE_UPDATE_SECS` | seconds, 0 or 0.1–60 | `0.5` | bring `trajectory.csv`, `summary.json` (`"complete": false`), the raw recording and the `.rrd` up to date this often while the run goes, so a killed recorder loses at most about that much; the writes run on a writer thread, never on the event loop ([`crate::writer`]); `0`: only at the end |
 //!
 //! Inputs: `fused_pose`, `frame_timing` (every raw frame `sync` received, joints included) and
 //! `ground_truth` (from the one simulated source that sends it; optional) — the same three
@@ -35,6 +35,10 @@ pub const RECORD_FRAMES: &str = "RECORD_FRAMES";
 pub const WARMUP_SECS: &str = "WARMUP_SECS";
 /// Env var: how often the files are updated while the run goes.
 pub const LIVE_UPDATE_SECS: &str = "LIVE_UPDATE_SECS";
+
+/// How often the files are updated while the run goes unless told, seconds: a kill loses at
+/// most this plus the time the writer thread takes.
+pub const DEFAULT_LIVE_UPDATE_SECS: f64 = 0.5;
 
 const NODE: &str = "recorder";
 
@@ -104,7 +108,7 @@ impl Config {
             NODE,
             &lookup,
             LIVE_UPDATE_SECS,
-            0.0,
+            DEFAULT_LIVE_UPDATE_SECS,
             |s| s == 0.0 || (0.1..=60.0).contains(&s),
             "0 (off) or seconds between 0.1 and 60",
         )?;

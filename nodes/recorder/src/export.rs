@@ -2,9 +2,10 @@
 //! per joint, thesis §6.4.5) as a whitespace text file like the thesis's, and the whole run as a
 //! motion (CSV, TRC, C3D) through `trigait-motion`, so that the CLI reads it back.
 //!
-//! While the run goes, `trajectory.csv` is appended and `summary.json` rewritten
-//! ([`LiveFiles`], every `LIVE_UPDATE_SECS` when set), so a recorder killed mid-run leaves both behind,
-//! up to the last update; at the end every file is written whole.
+//! While the run goes, `trajectory.csv` is appended ([`LiveTrajectory`] on the event loop hands
+//! the new frames to [`LiveCsv`] on the writer thread, [`crate::writer`]) and `summary.json`
+//! rewritten, so a recorder killed mid-run leaves both behind, up to the last update; at the
+//! end every file is written whole.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::fmt::Write as _;
@@ -165,61 +166,82 @@ pub fn write_summary(dir: &Path, summary: &crate::stats::Summary) -> eyre::Resul
     Ok(path)
 }
 
-/// The files kept current while the run goes.
-#[derive(Debug)]
-pub struct LiveFiles {
-    dir: PathBuf,
-    csv: Option<(FrameGrid, CsvAppender)>,
+/// Removes the summary and trajectory files of an earlier run from `dir`, so that none is
+/// taken for this run's before this run's first update.
+///
+/// # Errors
+/// When an old file cannot be removed.
+pub fn clear_earlier_run(dir: &Path) -> eyre::Result<()> {
+    for name in TRAJECTORY_FILES
+        .iter()
+        .chain(&["summary.json", "trajectory.txt"])
+    {
+        let path = dir.join(name);
+        if path.exists() {
+            std::fs::remove_file(&path)
+                .with_context(|| format!("removing the earlier run's {}", path.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Frames of `trajectory.csv` to append: `rows` are frames `first_frame…` on the grid whose
+/// columns and rate `start` gives in the first batch of the run (the file's header).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CsvRows {
+    /// The columns and the frame rate, Hz, in the batch that starts the file.
+    pub start: Option<(Vec<Joint>, f64)>,
+    /// The frame number of `rows[0]`.
+    pub first_frame: usize,
+    /// One row of cells (one per column) per frame.
+    pub rows: Vec<Vec<Option<Point3<f64>>>>,
+}
+
+impl CsvRows {
+    /// Appends `newer`'s frames (the ones after these) after these.
+    pub fn absorb(&mut self, newer: CsvRows) {
+        if self.start.is_none() && self.rows.is_empty() {
+            self.first_frame = newer.first_frame;
+        }
+        debug_assert!(
+            newer.rows.is_empty() || newer.first_frame == self.first_frame + self.rows.len(),
+            "trajectory rows are handed on in order"
+        );
+        self.start = self.start.take().or(newer.start);
+        self.rows.extend(newer.rows);
+    }
+}
+
+/// The event loop's side of the live `trajectory.csv`: which frames were handed to the writer
+/// thread already.
+#[derive(Debug, Default)]
+pub struct LiveTrajectory {
+    grid: Option<FrameGrid>,
+    frames: usize,
     warned_new_joint: bool,
 }
 
-impl LiveFiles {
-    /// Starts in `dir`, removing the summary and trajectory files of an earlier run, so that
-    /// none is taken for this run's before this run's first update.
-    ///
-    /// # Errors
-    /// When an old file cannot be removed.
-    pub fn start(dir: &Path) -> eyre::Result<Self> {
-        for name in TRAJECTORY_FILES
-            .iter()
-            .chain(&["summary.json", "trajectory.txt"])
-        {
-            let path = dir.join(name);
-            if path.exists() {
-                std::fs::remove_file(&path)
-                    .with_context(|| format!("removing the earlier run's {}", path.display()))?;
-            }
-        }
-        Ok(Self {
-            dir: dir.to_path_buf(),
-            csv: None,
-            warned_new_joint: false,
-        })
-    }
-
-    /// Appends the frames fused since the last call to `trajectory.csv` and makes them
-    /// durable. The file starts once two poses give the frame rate; its columns are the joints
-    /// fused by then (one fused only later is in the files written at the end).
-    ///
-    /// # Errors
-    /// When the file cannot be written.
-    pub fn update_trajectory(&mut self, trajectory: &Trajectory) -> eyre::Result<()> {
-        if self.csv.is_none() {
+impl LiveTrajectory {
+    /// The frames fused since the last call ([`Trajectory::rows_from`]: the new poses only).
+    /// The file starts once two poses give the frame rate; its columns are the joints fused by
+    /// then (one fused only later is in the files written at the end).
+    pub fn take_rows(&mut self, trajectory: &Trajectory) -> CsvRows {
+        let mut start = None;
+        if self.grid.is_none() {
             let Ok(grid) = trajectory.grid() else {
-                return Ok(());
+                return CsvRows::default();
             };
-            let path = self.dir.join("trajectory.csv");
-            let csv = CsvAppender::create(&path, &grid.joints, grid.rate_hz())?;
-            self.csv = Some((grid, csv));
+            start = Some((grid.joints.clone(), grid.rate_hz()));
+            self.grid = Some(grid);
         }
-        let Some((grid, csv)) = &mut self.csv else {
-            return Ok(());
+        let Some(grid) = &self.grid else {
+            return CsvRows::default();
         };
-        let rows = match trajectory.rows_from(grid, csv.frames()) {
+        let rows = match trajectory.rows_from(grid, self.frames) {
             Ok(rows) => rows,
             Err(e) => {
                 warn!("trajectory.csv is not extended while the run goes: {e}");
-                return Ok(());
+                Vec::new()
             }
         };
         if !self.warned_new_joint
@@ -234,8 +256,63 @@ impl LiveFiles {
                 "a joint first fused after trajectory.csv's columns were fixed: it is in the files written at the end"
             );
         }
-        csv.append(&rows)?;
+        let first_frame = self.frames;
+        self.frames += rows.len();
+        CsvRows {
+            start,
+            first_frame,
+            rows,
+        }
+    }
+}
+
+/// The writer thread's side of the live `trajectory.csv`.
+#[derive(Debug)]
+pub struct LiveCsv {
+    path: PathBuf,
+    csv: Option<CsvAppender>,
+}
+
+impl LiveCsv {
+    /// `trajectory.csv` in `dir`, created by the first [`Self::append`] that starts it.
+    #[must_use]
+    pub fn new(dir: &Path) -> Self {
+        Self {
+            path: dir.join("trajectory.csv"),
+            csv: None,
+        }
+    }
+
+    /// Appends `rows` and hands them to the operating system (no `fsync`: see
+    /// [`CsvAppender::flush`]). What was written is taken out of `rows`, so after a failure
+    /// they hold what is still to write.
+    ///
+    /// # Errors
+    /// When the file cannot be created or written.
+    pub fn append(&mut self, rows: &mut CsvRows) -> eyre::Result<()> {
+        if self.csv.is_none() {
+            let Some((joints, rate_hz)) = &rows.start else {
+                return Ok(());
+            };
+            self.csv = Some(CsvAppender::create(&self.path, joints, *rate_hz)?);
+            rows.start = None;
+        }
+        let Some(csv) = &mut self.csv else {
+            return Ok(());
+        };
+        if rows.first_frame != csv.frames() {
+            warn!(
+                "trajectory.csv has {} frames but the next rows start at frame {}: not extended while the run goes",
+                csv.frames(),
+                rows.first_frame
+            );
+            *rows = CsvRows::default();
+            return Ok(());
+        }
+        csv.append(&rows.rows)?;
         csv.flush()?;
+        rows.first_frame += rows.rows.len();
+        rows.rows.clear();
         Ok(())
     }
 }

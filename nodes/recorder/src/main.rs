@@ -1,10 +1,12 @@
 //! `recorder`: the end of the graph. Logs everything to rerun (an `.rrd` file by default, a
 //! live viewer when `RERUN_CONNECT` is set), keeps the thesis ring buffer, and writes into
-//! `OUTPUT_DIR` as it goes when asked (`LIVE_UPDATE_SECS`, [`config`]): it then appends the new frames to
-//! `trajectory.csv`, rewrites `summary.json` (`"complete": false`) and flushes the `.rrd`, so
-//! a recorder killed mid-run loses at most the last half second. When the graph ends it
-//! writes `trajectory.txt` (thesis format), `trajectory.csv`/`.trc`/`.c3d` (the run as a motion
-//! the CLI reads) and the final `summary.json` whole.
+//! `OUTPUT_DIR` as it goes (every `LIVE_UPDATE_SECS`, 0.5 s by default, [`config`]): its writer
+//! thread ([`writer`]) appends the new frames to `trajectory.csv` and the raw recording,
+//! rewrites `summary.json` (`"complete": false`) and flushes the `.rrd`, so a recorder killed
+//! mid-run loses at most the last second while the disk keeps up, and the event loop never
+//! waits for the disk. When the graph ends it writes `trajectory.txt` (thesis format),
+//! `trajectory.csv`/`.trc`/`.c3d` (the run as a motion the CLI reads) and the final
+//! `summary.json` whole.
 //! Configuration: [`config`]; entity paths: [`viz`].
 
 mod blueprint;
@@ -16,6 +18,7 @@ mod stats;
 #[cfg(test)]
 mod tests;
 mod viz;
+mod writer;
 
 use dora_node_api::arrow_v59::array::Array;
 use dora_node_api::{DoraNode, Event, EventStream, MetadataParameters, get_integer_param};
@@ -25,8 +28,9 @@ use trigait_node_config::RigStamp;
 use trigait_schema::{FrameTiming, FusedPose, GroundTruth, Message, ports};
 
 use crate::config::Config;
-use crate::export::{LiveFiles, Ring, write_summary, write_trajectory};
+use crate::export::{LiveTrajectory, Ring, write_summary, write_trajectory};
 use crate::stats::{Stats, Summary};
+use crate::writer::{Update, Writer};
 
 fn main() -> eyre::Result<()> {
     trigait_node_log::init("recorder");
@@ -75,10 +79,13 @@ struct Recorder {
     stats: Stats,
     ring: Ring,
     trajectory: trigait_fusion::Trajectory,
-    live: LiveFiles,
-    recording: Option<recording::Recording>,
+    live_csv: LiveTrajectory,
+    /// Lines of the raw recording not handed to the writer yet (`None`: no raw recording).
+    lines: Option<recording::Lines>,
+    writer: Writer,
     last_update_nanos: i64,
-    update_errors: u64,
+    /// The longest a live update took on the event loop.
+    longest_update: std::time::Duration,
 }
 
 /// The event loop; returns the summary it wrote.
@@ -88,20 +95,29 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     let rec = viz::open(&config)?;
     viz::send_blueprint(&rec, &config.rig).context("recorder: sending the default blueprint")?;
     viz::log_static(&rec, &config.rig).context("recorder: logging the rig")?;
+    export::clear_earlier_run(&config.out_dir).context("recorder: OUTPUT_DIR")?;
+    let recording = config
+        .record_frames
+        .then(|| recording::Recording::start(&config.out_dir, &config.rig))
+        .transpose()
+        .context("recorder: starting the raw recording")?;
     let mut r = Recorder {
         gait: gait::Gait::new(&rec).context("recorder: logging the gait styles")?,
-        rec,
         stats: Stats::new(config.warmup_nanos),
         ring: Ring::new(config.ring_capacity),
         trajectory: trigait_fusion::Trajectory::new(),
-        live: LiveFiles::start(&config.out_dir).context("recorder: OUTPUT_DIR")?,
-        recording: config
-            .record_frames
-            .then(|| recording::Recording::start(&config.out_dir, &config.rig))
-            .transpose()
-            .context("recorder: starting the raw recording")?,
+        live_csv: LiveTrajectory::default(),
+        lines: recording.is_some().then(recording::Lines::default),
+        writer: Writer::spawn(writer::Files {
+            csv: export::LiveCsv::new(&config.out_dir),
+            recording,
+            rec: rec.clone(),
+            dir: config.out_dir.clone(),
+        })
+        .context("recorder")?,
+        rec,
         last_update_nanos: now_nanos(),
-        update_errors: 0,
+        longest_update: std::time::Duration::ZERO,
     };
     let stamp = RigStamp::new("recorder", &config.rig);
     let mut rerun_errors = 0_u64;
@@ -142,7 +158,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
             .live_update_nanos
             .is_some_and(|period| now - r.last_update_nanos >= period)
         {
-            r.update(&config, now);
+            r.update(now);
         }
     }
     count_drops(&mut r.stats, &mut events);
@@ -176,8 +192,8 @@ impl Recorder {
             .and_then(|()| self.gait.push(&pose));
         self.ring.push(&pose);
         self.trajectory.push(&pose);
-        if let Some(recording) = &mut self.recording {
-            recording.push_pose(&pose);
+        if let Some(lines) = &mut self.lines {
+            lines.push_pose(&pose);
         }
         self.stats.push_pose(pose, now, sent);
         logged
@@ -192,8 +208,8 @@ impl Recorder {
                     self.stats.push_frame(&row.sensor_id, row.seq, now);
                 }
                 self.stats.push_timing(&rows);
-                if let Some(recording) = &mut self.recording {
-                    recording.push_frames(&rows);
+                if let Some(lines) = &mut self.lines {
+                    lines.push_frames(&rows);
                 }
                 viz::log_timing(&self.rec, &rows)?;
                 rows.iter()
@@ -218,44 +234,47 @@ impl Recorder {
         }
     }
 
-    /// Brings the files up to date: new frames appended to `trajectory.csv`, `summary.json`
-    /// of the run so far, the recording flushed. A failure is logged (the first, then
-    /// counted) and the run goes on; the final write reports it again.
-    fn update(&mut self, config: &Config, now: i64) {
+    /// Hands the writer thread what is new since the last update: the new frames of
+    /// `trajectory.csv`, the new lines of the raw recording, the summary so far (its
+    /// percentiles are sorted on the thread) and the new samples. Never waits ([`writer`]).
+    fn update(&mut self, now: i64) {
+        let started = std::time::Instant::now();
         self.last_update_nanos = now;
-        let summary = self.stats.summary(now, false);
-        let updated = self
-            .live
-            .update_trajectory(&self.trajectory)
-            .and_then(|()| {
-                self.recording
-                    .as_mut()
-                    .map_or(Ok(()), recording::Recording::flush)
-            })
-            .and_then(|()| write_summary(&config.out_dir, &summary).map(|_| ()));
-        if let Err(e) = updated {
-            self.update_errors += 1;
-            if self.update_errors == 1 {
-                error!(
-                    "recorder: updating the files while the run goes failed (further failures counted): {e:#}"
-                );
-            }
-        }
-        // Asks rerun's sink thread to write out what it holds, without waiting for it: a
-        // blocking flush (a disk or a viewer that is slow) would delay the poses behind it.
-        if let Err(e) = self.rec.flush_async() {
-            warn!("flushing the recording: {e}");
-        }
+        let (summary, samples) = self.stats.live(now);
+        self.writer.offer(Update {
+            csv: self.live_csv.take_rows(&self.trajectory),
+            lines: self.lines.as_mut().map(std::mem::take).unwrap_or_default(),
+            samples,
+            summary: Some(summary),
+        });
+        self.longest_update = self.longest_update.max(started.elapsed());
     }
 
     /// Writes the exports and the final `summary.json`, flushes the recording.
+    /// The writer thread is handed the rest of the raw recording and joined first, so that no
+    /// update of its lands after (or between) the final files.
     fn finish(mut self, config: &Config) -> eyre::Result<Summary> {
-        if self.update_errors > 1 {
+        let last = Update {
+            lines: self.lines.take().unwrap_or_default(),
+            ..Update::default()
+        };
+        let writes = self
+            .writer
+            .finish(last)
+            .context("recorder: writing the raw recording")?;
+        if writes.failed > 1 {
             warn!(
                 "{} updates of the files while the run went failed",
-                self.update_errors
+                writes.failed
             );
         }
+        info!(
+            "{} updates written by the writer thread (the longest in {:.1} ms), {} merged into a later one while it was behind; the event loop spent at most {:.3} ms handing one over",
+            writes.written,
+            writes.longest_write.as_secs_f64() * 1e3,
+            writes.coalesced,
+            self.longest_update.as_secs_f64() * 1e3
+        );
         let mut summary = self.stats.summary(now_nanos(), true);
         let (gait_report, gait_logged) = self.gait.finish();
         summary.gait = Some(gait_report);
@@ -267,11 +286,6 @@ impl Recorder {
             .context("recorder: writing the thesis text export")?;
         write_trajectory(&config.out_dir, &self.trajectory)
             .context("recorder: writing the trajectory files")?;
-        if let Some(recording) = &mut self.recording {
-            recording
-                .flush()
-                .context("recorder: writing the raw recording")?;
-        }
         let path = write_summary(&config.out_dir, &summary).context("recorder")?;
         self.rec.flush_blocking().ok();
         drop(self.rec);

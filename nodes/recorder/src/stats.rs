@@ -24,7 +24,8 @@ pub struct Stats {
     first_pose_nanos: Option<i64>,
     pose_stamps_nanos: Option<(i64, i64)>,
     warmup_poses: u64,
-    warmup_latency_nanos: Vec<i64>,
+    samples: Samples,
+    handed: Handed,
     truth: TruthTrack,
     pending: VecDeque<FusedPose>,
     errors: PositionErrors,
@@ -32,8 +33,6 @@ pub struct Stats {
     joints_by_sensors_used: BTreeMap<usize, u64>,
     poses_without_truth: u64,
     timing: BTreeMap<String, SensorTiming>,
-    latency_nanos: Vec<i64>,
-    age_nanos: Vec<i64>,
     sets: u64,
     last_seq: Option<u64>,
     dropped_sets: u64,
@@ -51,7 +50,6 @@ pub struct Stats {
 
 #[derive(Debug, Default)]
 struct SensorTiming {
-    abs_err_nanos: Vec<i64>,
     unsynchronised: u64,
     last_offset_nanos: Option<i64>,
     last_drift_ppm: Option<f64>,
@@ -195,6 +193,103 @@ pub struct NtpSummary {
 /// p50/p99/max of a sample, ms, by the one percentile rule.
 pub use trigait_scoring::Percentiles;
 
+/// The samples whose percentiles `summary.json` reports: end-to-end latency (steady state and
+/// warm-up), age, and each sensor's |NTP mapping error|, ns, in arrival order.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Samples {
+    latency_nanos: Vec<i64>,
+    warmup_latency_nanos: Vec<i64>,
+    age_nanos: Vec<i64>,
+    ntp_abs_err_nanos: BTreeMap<String, Vec<i64>>,
+}
+
+/// How many of each series of [`Samples`] were handed on already.
+#[derive(Debug, Clone, Default)]
+pub struct Handed {
+    latency: usize,
+    warmup_latency: usize,
+    age: usize,
+    ntp: BTreeMap<String, usize>,
+}
+
+impl Samples {
+    /// Whether no series holds a sample.
+    #[cfg(test)]
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.latency_nanos.is_empty()
+            && self.warmup_latency_nanos.is_empty()
+            && self.age_nanos.is_empty()
+            && self.ntp_abs_err_nanos.values().all(Vec::is_empty)
+    }
+
+    /// Appends `newer`'s samples after these.
+    pub fn absorb(&mut self, newer: Samples) {
+        self.latency_nanos.extend(newer.latency_nanos);
+        self.warmup_latency_nanos.extend(newer.warmup_latency_nanos);
+        self.age_nanos.extend(newer.age_nanos);
+        for (sensor, errors) in newer.ntp_abs_err_nanos {
+            self.ntp_abs_err_nanos
+                .entry(sensor)
+                .or_default()
+                .extend(errors);
+        }
+    }
+
+    /// The samples after those `handed` counts.
+    fn since(&self, handed: &Handed) -> Samples {
+        let tail = |v: &[i64], from: usize| v.get(from..).unwrap_or_default().to_vec();
+        Samples {
+            latency_nanos: tail(&self.latency_nanos, handed.latency),
+            warmup_latency_nanos: tail(&self.warmup_latency_nanos, handed.warmup_latency),
+            age_nanos: tail(&self.age_nanos, handed.age),
+            ntp_abs_err_nanos: self
+                .ntp_abs_err_nanos
+                .iter()
+                .map(|(id, v)| {
+                    let from = handed.ntp.get(id).copied().unwrap_or(0);
+                    (id.clone(), tail(v, from))
+                })
+                .collect(),
+        }
+    }
+
+    /// What every series holds now.
+    fn handed(&self) -> Handed {
+        Handed {
+            latency: self.latency_nanos.len(),
+            warmup_latency: self.warmup_latency_nanos.len(),
+            age: self.age_nanos.len(),
+            ntp: self
+                .ntp_abs_err_nanos
+                .iter()
+                .map(|(id, v)| (id.clone(), v.len()))
+                .collect(),
+        }
+    }
+
+    /// Sets the percentiles of `summary` (and each sensor's `frames_checked` and
+    /// `share_below_1ms`) from these samples: O(n log n) in the samples.
+    pub fn fill(&self, summary: &mut Summary) {
+        summary.latency_ms = Percentiles::of_nanos(&self.latency_nanos);
+        summary.warmup.latency_ms = Percentiles::of_nanos(&self.warmup_latency_nanos);
+        summary.age_ms = Percentiles::of_nanos(&self.age_nanos);
+        for (id, errors) in &self.ntp_abs_err_nanos {
+            let Some(ntp) = summary.ntp.get_mut(id) else {
+                continue;
+            };
+            let below = errors.iter().filter(|e| **e < WRONG_NANOS).count();
+            ntp.frames_checked = errors.len() as u64;
+            ntp.abs_error_ms = Percentiles::of_nanos(errors);
+            ntp.share_below_1ms = if errors.is_empty() {
+                0.0
+            } else {
+                below as f64 / errors.len() as f64
+            };
+        }
+    }
+}
+
 impl Default for Stats {
     fn default() -> Self {
         Self::new(0)
@@ -210,7 +305,8 @@ impl Stats {
             first_pose_nanos: None,
             pose_stamps_nanos: None,
             warmup_poses: 0,
-            warmup_latency_nanos: Vec::new(),
+            samples: Samples::default(),
+            handed: Handed::default(),
             truth: TruthTrack::new(TRUTH_HORIZON_NANOS, TRUTH_MAX_SPAN_NANOS),
             pending: VecDeque::new(),
             errors: PositionErrors::default(),
@@ -218,8 +314,6 @@ impl Stats {
             joints_by_sensors_used: BTreeMap::new(),
             poses_without_truth: 0,
             timing: BTreeMap::new(),
-            latency_nanos: Vec::new(),
-            age_nanos: Vec::new(),
             sets: 0,
             last_seq: None,
             dropped_sets: 0,
@@ -275,12 +369,12 @@ impl Stats {
         self.warmup_poses += u64::from(warming_up);
         if let Some(sent) = trigger_sent_nanos {
             if warming_up {
-                self.warmup_latency_nanos.push(now_nanos - sent);
+                self.samples.warmup_latency_nanos.push(now_nanos - sent);
             } else {
-                self.latency_nanos.push(now_nanos - sent);
+                self.samples.latency_nanos.push(now_nanos - sent);
             }
         }
-        self.age_nanos.push(now_nanos - pose.stamp_nanos);
+        self.samples.age_nanos.push(now_nanos - pose.stamp_nanos);
         self.joints_fused += pose.joints.len() as u64;
         self.joints_skipped += pose.skipped.len() as u64;
         self.empty_poses += u64::from(pose.joints.is_empty());
@@ -333,7 +427,11 @@ impl Stats {
             ) {
                 (None, _, _) => t.unsynchronised += 1,
                 (Some(_), Some(err), Some(true_nanos)) => {
-                    t.abs_err_nanos.push(err.abs());
+                    self.samples
+                        .ntp_abs_err_nanos
+                        .entry(row.sensor_id.clone())
+                        .or_default()
+                        .push(err.abs());
                     let first = *t.first_mapped_true_nanos.get_or_insert(true_nanos);
                     if err.abs() > WRONG_NANOS && true_nanos - first >= self.warmup_nanos {
                         t.wrong += 1;
@@ -378,10 +476,30 @@ impl Stats {
     }
 
     /// The summary at `end_nanos`: the final one (`at_end`: every pose scored, whether its
-    /// ground truth came or not), or one of the run so far, rewritten as the run goes (poses
-    /// whose ground truth has not come yet wait for the next).
+    /// ground truth came or not), or one of the run so far (poses whose ground truth has not
+    /// come yet wait for the next). Sorts every sample for its percentiles: O(n log n).
     #[must_use]
     pub fn summary(&mut self, end_nanos: i64, at_end: bool) -> Summary {
+        let mut summary = self.counts(end_nanos, at_end);
+        self.samples.fill(&mut summary);
+        summary
+    }
+
+    /// The summary of the run so far at `end_nanos` without its percentiles, and the samples
+    /// that came since the last call: what the writer thread needs to bring `summary.json` up
+    /// to date ([`Samples::fill`] on every sample it was handed), at a cost on the event loop
+    /// that grows with what is new (and the RMSE's sum over the errors), not with sorting
+    /// every sample.
+    pub fn live(&mut self, end_nanos: i64) -> (Summary, Samples) {
+        let summary = self.counts(end_nanos, false);
+        let new = self.samples.since(&self.handed);
+        self.handed = self.samples.handed();
+        (summary, new)
+    }
+
+    /// [`Self::summary`] with every percentile left at its default (and `frames_checked`
+    /// and `share_below_1ms` at 0): what is counted, not sorted.
+    fn counts(&mut self, end_nanos: i64, at_end: bool) -> Summary {
         self.score_pending(at_end);
         let mut gaps = Vec::new();
         for (sensor, f) in &self.frames {
@@ -434,18 +552,13 @@ impl Stats {
                 .timing
                 .iter()
                 .map(|(id, t)| {
-                    let below = t.abs_err_nanos.iter().filter(|e| **e < WRONG_NANOS).count();
                     (
                         id.clone(),
                         NtpSummary {
-                            frames_checked: t.abs_err_nanos.len() as u64,
+                            frames_checked: 0,
                             frames_unsynchronised: t.unsynchronised,
-                            abs_error_ms: Percentiles::of_nanos(&t.abs_err_nanos),
-                            share_below_1ms: if t.abs_err_nanos.is_empty() {
-                                0.0
-                            } else {
-                                below as f64 / t.abs_err_nanos.len() as f64
-                            },
+                            abs_error_ms: Percentiles::default(),
+                            share_below_1ms: 0.0,
                             frames_over_1ms: t.wrong,
                             over_1ms_span_secs: t.wrong_span.map(|(a, b)| (b - a) as f64 * 1e-9),
                             offset_ms: t.last_offset_nanos.map(|o| o as f64 * 1e-6),
@@ -454,13 +567,13 @@ impl Stats {
                     )
                 })
                 .collect(),
-            latency_ms: Percentiles::of_nanos(&self.latency_nanos),
+            latency_ms: Percentiles::default(),
             warmup: Warmup {
                 secs: self.warmup_nanos as f64 * 1e-9,
                 poses: self.warmup_poses,
-                latency_ms: Percentiles::of_nanos(&self.warmup_latency_nanos),
+                latency_ms: Percentiles::default(),
             },
-            age_ms: Percentiles::of_nanos(&self.age_nanos),
+            age_ms: Percentiles::default(),
             gaps,
             malformed_inputs: self.malformed,
             input_drops: self.input_drops.clone(),
@@ -520,5 +633,44 @@ mod tests {
         let span = k1.over_1ms_span_secs.unwrap();
         assert!((span - 6.0 * period as f64 * 1e-9).abs() < 1e-9, "{span}");
         assert_eq!((k2.frames_over_1ms, k2.over_1ms_span_secs), (0, None));
+    }
+
+    /// The writer thread's summary — counts from [`Stats::live`], percentiles filled from
+    /// every sample it was handed in pieces — is the summary of the run so far, whatever the
+    /// pieces (sensors appearing between updates included).
+    #[test]
+    fn live_pieces_fill_the_same_summary() {
+        let mut stats = Stats::new(100);
+        let mut handed = Samples::default();
+        let mut live = None;
+        for step in 0..5_i64 {
+            for k in 0..7_i64 {
+                let seq = (step * 7 + k) as u64;
+                let t = 1_000 + step * 1_000 + k * 10;
+                stats.push_timing(&[timing("k1", seq, t, (k - 3) * 700_000)]);
+                if step >= 2 {
+                    stats.push_timing(&[timing("k2", seq, t, k * 300_000)]);
+                }
+                let pose = FusedPose {
+                    set_seq: seq,
+                    stamp_nanos: t,
+                    joints: BTreeMap::new(),
+                    skipped: BTreeMap::new(),
+                    missing_sensors: Vec::new(),
+                };
+                stats.push_pose(pose, t + 50 + k * k, Some(t - k));
+            }
+            let (mut summary, new) = stats.live(10_000);
+            handed.absorb(new);
+            handed.fill(&mut summary);
+            live = Some(summary);
+        }
+        let live = serde_json::to_value(live.unwrap()).unwrap();
+        let whole = serde_json::to_value(stats.summary(10_000, false)).unwrap();
+        assert_eq!(live, whole);
+        assert_eq!(whole["ntp"]["k2"]["frames_checked"], 21);
+        assert!(whole["latency_ms"]["count"].as_u64().unwrap() > 20);
+        // Nothing new since: an empty piece.
+        assert!(stats.live(10_000).1.is_empty());
     }
 }

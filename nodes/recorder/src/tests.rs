@@ -24,6 +24,14 @@ fn config_defaults_and_errors() {
     assert!(c.connect.is_none());
     assert_eq!(c.ring_capacity, 1000);
     assert_eq!(c.warmup_nanos, 1_000_000_000);
+    assert_eq!(c.live_update_nanos, Some(500_000_000));
+    assert!(
+        Config::from_lookup(lookup(&[("LIVE_UPDATE_SECS", "0")]))
+            .unwrap()
+            .live_update_nanos
+            .is_none(),
+        "0 turns live writing off"
+    );
     assert!(
         Config::from_lookup(lookup(&[("RRD", "none")]))
             .unwrap()
@@ -35,6 +43,7 @@ fn config_defaults_and_errors() {
         ("RERUN_CONNECT", "localhost:9876"),
         ("RIG", "ring-2"),
         ("WARMUP_SECS", "-1"),
+        ("LIVE_UPDATE_SECS", "0.05"),
     ] {
         let text = chain(&Config::from_lookup(lookup(&[(key, raw)])).unwrap_err());
         assert!(
@@ -344,5 +353,78 @@ fn poses_and_truth_in_summary_and_trajectory_out() {
     let clip = trigait_motion::read_csv(out.join("trajectory.csv")).unwrap();
     assert_eq!(clip.frame_count(), 3);
     assert!((clip.rate_hz() - 30.0).abs() < 1e-3);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// By default the files are written as the run goes: while poses still come (for 1.5 s),
+/// `summary.json` says `"complete": false` with poses in it and `trajectory.csv` and the raw
+/// recording's `poses.csv` hold frames, all written by the writer thread; at the end the
+/// summary is complete and the CSV holds every pose.
+#[test]
+fn files_are_written_while_the_run_goes() {
+    use trigait_schema::Message;
+    let dir = std::env::temp_dir().join(format!("trigait-recorder-live-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let period = 33_333_333;
+    let n = 45_u64;
+    let mut events = Vec::new();
+    for i in 0..n {
+        let t = i as i64 * period;
+        let pose = pose(i, t, t as f64 * 1e-9);
+        events.push(serde_json::json!({
+            "time_offset_secs": i as f64 * period as f64 * 1e-9, "type": "Input", "id": "fused_pose",
+            "path": arrow_file(&dir, &format!("pose{i}"), pose.encode().unwrap()), "column": "msg"
+        }));
+    }
+    events.push(serde_json::json!({"time_offset_secs": 1.6, "type": "Stop"}));
+    let (node, events, _rx) = init_node(
+        serde_json::json!({"id": "recorder", "events": events}),
+        TestingOptions::default(),
+    );
+    let out = dir.join("out");
+    let config = Config::from_lookup(lookup(&[("OUTPUT_DIR", out.to_str().unwrap())])).unwrap();
+    assert_eq!(config.live_update_nanos, Some(500_000_000), "on by default");
+    let run = std::thread::spawn(move || crate::run(config, node, events));
+    let mut seen = None;
+    while !run.is_finished() {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        let Ok(text) = std::fs::read_to_string(out.join("summary.json")) else {
+            continue;
+        };
+        let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        if json["complete"] == false && json["sets_fused"].as_u64().unwrap() > 0 {
+            let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap_or_default();
+            let poses = std::fs::read_to_string(out.join(trigait_recording::POSES_FILE)).unwrap();
+            seen = Some((
+                json["sets_fused"].as_u64().unwrap(),
+                csv.lines().count().saturating_sub(1),
+                poses.lines().count().saturating_sub(1),
+            ));
+            break;
+        }
+    }
+    let summary = run.join().unwrap().unwrap();
+    let (sets, csv_frames, pose_lines) = seen.expect("no live summary.json before the end");
+    assert!(
+        sets < n,
+        "the live summary came before the last pose: {sets}"
+    );
+    // The CSV and the recording were appended in the same update as the summary (or later).
+    assert!(
+        csv_frames >= 2 && pose_lines >= 1,
+        "{csv_frames} {pose_lines}"
+    );
+    assert_eq!(summary.sets_fused, n);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["complete"], true);
+    let clip = trigait_motion::read_csv(out.join("trajectory.csv")).unwrap();
+    assert_eq!(clip.frame_count(), n as usize);
+    let poses = std::fs::read_to_string(out.join(trigait_recording::POSES_FILE)).unwrap();
+    assert_eq!(
+        poses.lines().count() - 1,
+        n as usize,
+        "one line per pose (one joint)"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

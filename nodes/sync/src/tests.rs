@@ -162,7 +162,6 @@ fn ntp_routes_from_outputs() {
 ///   third frame) the chord error of a parabola, 0.6·(t − t₀)(t₁ − t) m for 1.2 m/s²; the
 ///   knee is there within the time uncertainty times its speed of where it truly was.
 #[test]
-#[ignore = "timing-dependent: in a fresh clone's CI every frame was dropped (14 of 14) in 2 of 2 runs while it passes in an incremental build; run with --ignored until its event times no longer depend on the host clock at start-up"]
 fn ntp_replies_and_frames_in_aligned_sets_out() {
     use nalgebra::{Point3, Vector3};
     use trigait_schema::{FrameTiming, Message, NtpExchange, SkeletonFrameMessage, ports};
@@ -172,9 +171,13 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
     const MS: i64 = 1_000_000;
     let sensors = [("k1", 5 * MS, 0), ("k2", -3 * MS, 11 * MS)];
     let dir = scratch_dir("sync-loop");
-    // Host time before dora's testing clock starts: every event is delivered no earlier than
-    // `host_start` plus its offset.
-    let host_start = crate::now_nanos();
+    // dora's testing clock starts at `init_node` and delivers each event at its offset from
+    // there, while the NTP stamps and captures below are host-clock instants. So the events are
+    // planned on a host instant a margin ahead, and `init_node` waits for it: writing the event
+    // files (slow on a busy disk) then shifts nothing, where a start taken before writing them
+    // made every round trip look too long to trust and every frame unplaceable.
+    const MARGIN: i64 = 1_500 * MS;
+    let host_start = crate::now_nanos() + MARGIN;
     let secs = |t: i64| (t - host_start) as f64 * 1e-9;
     // Where sensor `k` (0, 1) truly saw the knee at host time `t`: a parabola in x (1.2 m/s²).
     let knee = |k: usize, t: i64| {
@@ -239,6 +242,14 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
         ));
     }
     events.push(serde_json::json!({"time_offset_secs": 0.42, "type": "Stop"}));
+    let early = host_start - crate::now_nanos();
+    assert!(
+        early > 0,
+        "writing the events took {} ms past the {} ms margin",
+        -early / MS,
+        MARGIN / MS
+    );
+    std::thread::sleep(std::time::Duration::from_nanos(early.unsigned_abs()));
     let (node, stream, mut rx) = init_node(
         serde_json::json!({"id": "sync", "events": events}),
         TestingOptions::default(),

@@ -35,7 +35,7 @@ use nalgebra::{Isometry3, Point3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 use trigait_depth::{DepthFrame, HEIGHT, PIXELS, WIDTH};
 use trigait_kinect::Intrinsics;
-use trigait_skeleton::{Joint, TrackingState};
+use trigait_skeleton::{Joint, JointSample, TrackingState};
 
 use legs::{BAND_M, Band, FitInput, FloorFrame, LegFit, LegPose, fit_leg};
 pub use segment::Component;
@@ -193,6 +193,22 @@ pub struct TrackerConfig {
     pub max_inferred_frames: usize,
 }
 
+impl TrackerConfig {
+    /// The defaults for a sensor at `world_from_kinect` in a rig (the floor from its pose,
+    /// §6.4.4's z = 0), its images mirrored or not.
+    #[must_use]
+    pub fn for_pose(world_from_kinect: &Isometry3<f64>, mirrored: bool) -> Self {
+        Self {
+            camera: Camera {
+                mirrored,
+                ..Camera::default()
+            },
+            floor: Floor::from_pose(world_from_kinect),
+            ..Self::default()
+        }
+    }
+}
+
 impl Default for TrackerConfig {
     fn default() -> Self {
         Self {
@@ -285,6 +301,20 @@ impl TrackedFrame {
     #[must_use]
     pub fn joint(&self, joint: Joint) -> Option<&TrackedJoint> {
         self.joints.iter().find(|j| j.joint == joint)
+    }
+
+    /// The joints as an SDK-like body tracker reports them (the `skeleton_frame` a source
+    /// sends): position and state; the confidence has no place there.
+    #[must_use]
+    pub fn joint_samples(&self) -> Vec<JointSample> {
+        self.joints
+            .iter()
+            .map(|j| JointSample {
+                joint: j.joint,
+                position_in_kinect: j.position_in_kinect,
+                state: j.state,
+            })
+            .collect()
     }
 }
 

@@ -34,16 +34,25 @@ fn near_turn(t: f64, lap_secs: f64) -> bool {
     since < 0.35
 }
 
-/// Simulated depth of the walker on the thesis rig for 10 s at 30 Hz: for every sensor the
-/// tracked hips, knees and ankles are within 4 cm (median per joint class) of the rendered
-/// joint centres, and the left and right legs are never swapped (outside the 0.35 s after the
-/// simulated lap's instantaneous turn). Measured: medians 2.7–3.9 cm, no swap.
-#[test]
-fn walker_on_the_thesis_rig() {
+/// One sensor's score over a rendered lap.
+struct Score {
+    sensor: String,
+    /// Median error of hip, knee, ankle, metres.
+    medians: [f64; 3],
+    /// Joints reported (tracked or inferred) of those asked for.
+    reported: usize,
+    asked: usize,
+    /// Frames with the legs swapped (outside the 0.35 s after the lap's turn).
+    swaps: usize,
+}
+
+/// Renders `lap` on the thesis rig for `secs` at 30 Hz and tracks it on every sensor: per
+/// sensor the median error per joint class against the rendered joint centres, and the frames
+/// whose legs are swapped.
+fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64) -> Vec<Score> {
     let rig = Rig::builtin("thesis").unwrap();
-    let lap = lap();
-    let frames = (10.0 * RATE_HZ) as usize;
-    let mut failures = Vec::new();
+    let frames = (secs * RATE_HZ) as usize;
+    let mut scores = Vec::new();
     for sensor in &rig.sensors {
         let pose = sensor.world_from_kinect;
         let mut renderer = Renderer::new(
@@ -101,29 +110,103 @@ fn walker_on_the_thesis_rig() {
             }
         }
         let medians: Vec<f64> = errors.iter().map(|e| median(e.clone())).collect();
+        let rms: Vec<f64> = errors
+            .iter()
+            .map(|e| (e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64).sqrt())
+            .collect();
         eprintln!(
-            "{}: median error hip {:.3} knee {:.3} ankle {:.3} m; {reported} joints reported of {} ({tracked} tracked); {swaps} swapped frames",
+            "{} {}: median error hip {:.3} knee {:.3} ankle {:.3} m, RMS {:.3} / {:.3} / {:.3} m; {reported} joints reported of {} ({tracked} tracked); {swaps} swapped frames",
+            lap.name(),
             sensor.id,
             medians[0],
             medians[1],
             medians[2],
+            rms[0],
+            rms[1],
+            rms[2],
             frames * 6
         );
-        if reported < frames * 6 * 8 / 10 {
-            failures.push(format!("{}: {reported} joints reported", sensor.id));
+        scores.push(Score {
+            sensor: sensor.id.clone(),
+            medians: [medians[0], medians[1], medians[2]],
+            reported,
+            asked: frames * 6,
+            swaps,
+        });
+    }
+    scores
+}
+
+/// Simulated depth of the walker on the thesis rig for 10 s at 30 Hz: for every sensor the
+/// tracked hips, knees and ankles are within 4 cm (median per joint class) of the rendered
+/// joint centres, and the left and right legs are never swapped (outside the 0.35 s after the
+/// simulated lap's instantaneous turn). Measured: medians 2.7–3.9 cm, no swap.
+#[test]
+fn walker_on_the_thesis_rig() {
+    let mut failures = Vec::new();
+    for s in score_on_the_thesis_rig(&lap(), 10.0) {
+        if s.reported < s.asked * 8 / 10 {
+            failures.push(format!("{}: {} joints reported", s.sensor, s.reported));
         }
-        for (m, what) in medians.iter().zip(["hip", "knee", "ankle"]) {
+        for (m, what) in s.medians.iter().zip(["hip", "knee", "ankle"]) {
             if *m > 0.04 {
-                failures.push(format!("{}: median {what} error {m:.3} m", sensor.id));
+                failures.push(format!("{}: median {what} error {m:.3} m", s.sensor));
             }
         }
-        if swaps > 0 {
+        if s.swaps > 0 {
             failures.push(format!(
-                "{}: left/right swapped in {swaps} frames",
-                sensor.id
+                "{}: left/right swapped in {} frames",
+                s.sensor, s.swaps
             ));
         }
     }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// Real walks played through the renderer: CMU 07_01 and the OpenSim Rajagopal walk (joint
+/// centres from their markers), each there and back on the walkway of the thesis rig, 10 s.
+/// The goal is the walker's: ≤ 4 cm median per joint class on every sensor, no swap. It is
+/// not met. Measured (median hip / knee / ankle; swapped frames of 300): CMU 07_01 k1 3.8 / 3.7
+/// / 4.9 cm, 0; k2 3.9 / 3.1 / 3.8 cm, 8; k3 3.9 / 2.7 / 3.0 cm, 0. Rajagopal k1 4.6 / 5.2 / 5.2
+/// cm, 7; k2 4.6 / 4.4 / 4.4 cm, 1; k3 4.4 / 4.3 / 4.3 cm, 0. The test pins that state (≤ 6 cm,
+/// ≤ 15 swapped frames per sensor) and prints where the goal is missed.
+#[test]
+fn mocap_walks_through_the_renderer() {
+    let files = [
+        "mocap-cmu-07_01/07_01.c3d",
+        "mocap-opensim-rajagopal-walk/Rajagopal__motion_capture_walk.trc",
+    ];
+    let (mut failures, mut missed) = (Vec::new(), Vec::new());
+    for file in files {
+        let Some(path) = trigait_test_data::shared_file(file) else {
+            return;
+        };
+        let clip = trigait_motion::load_motion(&path).unwrap();
+        let lap = there_and_back(&clip.placed_on_walkway()).unwrap();
+        for s in score_on_the_thesis_rig(&lap, 10.0) {
+            for (m, what) in s.medians.iter().zip(["hip", "knee", "ankle"]) {
+                let line = format!("{file} {}: median {what} error {m:.3} m", s.sensor);
+                if *m > 0.06 {
+                    failures.push(line);
+                } else if *m > 0.04 {
+                    missed.push(line);
+                }
+            }
+            let line = format!("{file} {}: {} swapped frames", s.sensor, s.swaps);
+            if s.swaps > 15 {
+                failures.push(line);
+            } else if s.swaps > 0 {
+                missed.push(line);
+            }
+            if s.reported < s.asked * 8 / 10 {
+                failures.push(format!(
+                    "{file} {}: {} joints reported",
+                    s.sensor, s.reported
+                ));
+            }
+        }
+    }
+    eprintln!("goal (4 cm, no swap) missed: {missed:#?}");
     assert!(failures.is_empty(), "{failures:?}");
 }
 

@@ -1,0 +1,309 @@
+//! `trigait legs`: the lower-body tracker of the `leg-tracker` node on recorded depth frames,
+//! for sensors without the Kinect SDK's body tracker.
+//!
+//! Inputs are 16-bit PNGs in millimetres (512×424, 0 = no data), files and/or directories (their
+//! `.png` files in name order), tracked as one sequence of one sensor, so stature and segment
+//! lengths are learned over the first frames as on the live stream. Per frame it reports the
+//! outcome and people count, the person's share of the valid pixels (with `--mask`, its IoU
+//! against that mask), and hips, knees, ankles and feet in camera space with a confidence and
+//! an SDK-like state. The floor comes from the sensor's pose (`--rig` and `--sensor`) or is
+//! fitted to the depth. `--out` writes per frame the person mask as an 8-bit PNG (255 =
+//! person) and an overlay: the depth in grey, the person tinted, the fitted legs drawn.
+
+use std::path::{Path, PathBuf};
+
+use eyre::{WrapErr as _, bail, eyre};
+use serde::Serialize;
+use trigait_depth::io::{list_pngs, read_depth_png, read_mask_png, write_gray8_png};
+use trigait_depth::render::Image;
+use trigait_depth::{HEIGHT, WIDTH};
+use trigait_leg_tracker::{Camera, LegTracker, TrackedFrame, TrackerConfig};
+use trigait_skeleton::{Joint, TrackingState};
+
+/// Arguments of `trigait legs`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Depth PNGs (16-bit, millimetres, 512x424) and/or directories of them, in frame order.
+    #[arg(required = true, value_name = "PNG|DIR")]
+    inputs: Vec<PathBuf>,
+    /// The person mask of the (single) frame (512x424, non-zero = person): report the IoU of
+    /// the segmentation against it.
+    #[arg(long, value_name = "PNG")]
+    mask: Option<PathBuf>,
+    /// Rig file or name (`thesis`, `ring-N`): with --sensor, the floor from that sensor's pose
+    /// (otherwise a plane is fitted to the depth).
+    #[arg(long, value_name = "RIG", requires = "sensor")]
+    rig: Option<String>,
+    /// The sensor's id in --rig.
+    #[arg(long, value_name = "ID", requires = "rig")]
+    sensor: Option<String>,
+    /// Whether the images are mirrored (the column grows to the sensor's left), as the Kinect
+    /// SDK and libfreenect2 record them; simulated body depth is not.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
+    mirrored: bool,
+    /// Write the person mask (8-bit PNG) and an overlay image per frame into this directory.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Print the JSON report on stdout instead of the table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct FrameJson<'a> {
+    file: &'a Path,
+    #[serde(flatten)]
+    tracked: &'a TrackedFrame,
+    /// IoU of the person against `--mask`.
+    iou: Option<f64>,
+    mask_png: Option<PathBuf>,
+    overlay_png: Option<PathBuf>,
+}
+
+#[derive(Debug, Serialize)]
+struct ReportJson<'a> {
+    tool: &'static str,
+    mask: Option<&'a Path>,
+    rig: Option<&'a str>,
+    sensor: Option<&'a str>,
+    mirrored: bool,
+    frames: Vec<FrameJson<'a>>,
+}
+
+/// Runs the subcommand.
+pub fn run(args: &Args) -> eyre::Result<()> {
+    let mut files = Vec::new();
+    for input in &args.inputs {
+        if input.is_dir() {
+            files.extend(list_pngs(input).wrap_err("listing the input directory")?);
+        } else {
+            files.push(input.clone());
+        }
+    }
+    let mask = match &args.mask {
+        Some(_) if files.len() != 1 => bail!(
+            "--mask is the person mask of one frame, but {} frames were given",
+            files.len()
+        ),
+        Some(m) => Some(read_mask_png(m).wrap_err("reading --mask")?),
+        None => None,
+    };
+    let mut config = TrackerConfig {
+        camera: Camera {
+            mirrored: args.mirrored,
+            ..Camera::default()
+        },
+        ..TrackerConfig::default()
+    };
+    if let (Some(rig), Some(id)) = (&args.rig, &args.sensor) {
+        let rig = trigait_rig::Rig::from_spec(rig).wrap_err_with(|| format!("--rig {rig}"))?;
+        let sensor = rig.sensors.iter().find(|s| &s.id == id).ok_or_else(|| {
+            eyre!(
+                "--sensor {id}: not in the rig {:?} (it has {})",
+                rig.name,
+                rig.sensors
+                    .iter()
+                    .map(|s| s.id.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?;
+        config = TrackerConfig::for_pose(&sensor.world_from_kinect, args.mirrored);
+        if config.floor.is_none() {
+            bail!("--sensor {id}: its pose in the rig does not stand above the floor");
+        }
+    }
+    if let Some(out) = &args.out {
+        std::fs::create_dir_all(out)
+            .wrap_err_with(|| format!("creating --out {}", out.display()))?;
+    }
+    let camera = config.camera;
+    let mut tracker = LegTracker::new(config).wrap_err("the tracker's configuration")?;
+    let mut results = Vec::with_capacity(files.len());
+    for file in &files {
+        let depth = read_depth_png(file).wrap_err("reading a depth frame")?;
+        let tracked = tracker.track(&depth);
+        let iou = mask
+            .as_ref()
+            .map(|m| iou(&tracked.person_mask, m.as_slice()));
+        let (mask_png, overlay_png) = match &args.out {
+            Some(dir) => {
+                let stem = file
+                    .file_stem()
+                    .map_or_else(|| "frame".into(), |s| s.to_string_lossy().into_owned());
+                let mask_png = dir.join(format!("{stem}_person.png"));
+                let gray: Vec<u8> = if tracked.person_mask.is_empty() {
+                    vec![0; WIDTH * HEIGHT]
+                } else {
+                    tracked
+                        .person_mask
+                        .iter()
+                        .map(|p| if *p { 255 } else { 0 })
+                        .collect()
+                };
+                write_gray8_png(&mask_png, WIDTH, HEIGHT, &gray)
+                    .wrap_err("writing the person mask")?;
+                let overlay_png = dir.join(format!("{stem}_overlay.png"));
+                overlay(depth.as_mm(), &tracked, &camera)
+                    .write_png(&overlay_png)
+                    .wrap_err("writing the overlay")?;
+                (Some(mask_png), Some(overlay_png))
+            }
+            None => (None, None),
+        };
+        results.push((file, tracked, iou, mask_png, overlay_png));
+    }
+    if args.json {
+        let report = ReportJson {
+            tool: "trigait legs",
+            mask: args.mask.as_deref(),
+            rig: args.rig.as_deref(),
+            sensor: args.sensor.as_deref(),
+            mirrored: args.mirrored,
+            frames: results
+                .iter()
+                .map(|(file, tracked, iou, mask_png, overlay_png)| FrameJson {
+                    file,
+                    tracked,
+                    iou: *iou,
+                    mask_png: mask_png.clone(),
+                    overlay_png: overlay_png.clone(),
+                })
+                .collect(),
+        };
+        return crate::depth_metrics::print_json(&report);
+    }
+    let mut text = String::new();
+    for (file, tracked, iou, mask_png, overlay_png) in &results {
+        text += &table(file, tracked, *iou);
+        if let (Some(m), Some(o)) = (mask_png, overlay_png) {
+            text += &format!("  wrote {} and {}\n", m.display(), o.display());
+        }
+    }
+    crate::depth_metrics::print_text(&text)
+}
+
+/// Intersection over union of two pixel masks (an empty `found` is no pixel).
+fn iou(found: &[bool], truth: &[bool]) -> f64 {
+    let (mut inter, mut union) = (0_usize, 0_usize);
+    for (i, t) in truth.iter().enumerate() {
+        let f = found.get(i).copied().unwrap_or(false);
+        inter += usize::from(f && *t);
+        union += usize::from(f || *t);
+    }
+    if union == 0 {
+        0.0
+    } else {
+        inter as f64 / union as f64
+    }
+}
+
+fn state_name(state: TrackingState) -> &'static str {
+    match state {
+        TrackingState::Tracked => "tracked",
+        TrackingState::Inferred => "inferred",
+        TrackingState::NotTracked => "not tracked",
+    }
+}
+
+/// One frame as text: outcome, people, share and IoU, then one line per joint.
+fn table(file: &Path, t: &TrackedFrame, iou: Option<f64>) -> String {
+    let mut s = format!(
+        "{}: {:?}, {} person(s) in view, person {} px = {:.1} % of {} valid px",
+        file.display(),
+        t.status,
+        t.people,
+        t.person_pixels,
+        100.0 * t.person_share,
+        t.valid_pixels
+    );
+    if let Some(iou) = iou {
+        s += &format!(", IoU with the mask {iou:.3}");
+    }
+    s.push('\n');
+    for j in &t.joints {
+        let p = j.position_in_kinect;
+        s += &format!(
+            "  {:<12} x {:+.3} y {:+.3} z {:.3} m  {:<8} confidence {:.2}\n",
+            format!("{:?}", j.joint),
+            p.x,
+            p.y,
+            p.z,
+            state_name(j.state),
+            j.confidence
+        );
+    }
+    s
+}
+
+/// The depth in grey (near = light, 0.5–4.5 m), the person tinted orange, thighs and shanks
+/// as lines and the joints as squares (green tracked, yellow inferred).
+fn overlay(depth_mm: &[u16], t: &TrackedFrame, camera: &Camera) -> Image {
+    let mut image = Image::new(WIDTH, HEIGHT, [0, 0, 0]);
+    for (i, z) in depth_mm.iter().enumerate() {
+        let (x, y) = (i % WIDTH, i / WIDTH);
+        if *z == 0 {
+            continue;
+        }
+        let g = (255.0 - 215.0 * ((f64::from(*z) - 500.0) / 4000.0).clamp(0.0, 1.0)) as u8;
+        let c = if t.person_mask.get(i).copied().unwrap_or(false) {
+            [g, (f64::from(g) * 0.6) as u8, 0]
+        } else {
+            [g, g, g]
+        };
+        image.set(x, y, c);
+    }
+    let pixel = |joint: Joint| {
+        let j = t.joint(joint)?;
+        camera.project(&j.position_in_kinect)
+    };
+    for chain in [
+        [
+            Joint::HipLeft,
+            Joint::KneeLeft,
+            Joint::AnkleLeft,
+            Joint::FootLeft,
+        ],
+        [
+            Joint::HipRight,
+            Joint::KneeRight,
+            Joint::AnkleRight,
+            Joint::FootRight,
+        ],
+    ] {
+        for pair in chain.windows(2) {
+            if let (Some(a), Some(b)) = (pixel(pair[0]), pixel(pair[1])) {
+                line(&mut image, a, b, [0, 160, 255]);
+            }
+        }
+    }
+    for j in &t.joints {
+        if let Some((u, v)) = camera.project(&j.position_in_kinect)
+            && u >= 2.0
+            && v >= 2.0
+        {
+            let c = match j.state {
+                TrackingState::Tracked => [0, 220, 0],
+                _ => [240, 220, 0],
+            };
+            image.fill(u as usize - 2, v as usize - 2, 5, 5, c);
+        }
+    }
+    image
+}
+
+/// A straight line from pixel `a` to `b` (clipped by [`Image::set`]).
+fn line(image: &mut Image, a: (f64, f64), b: (f64, f64), c: [u8; 3]) {
+    let steps = (b.0 - a.0)
+        .abs()
+        .max((b.1 - a.1).abs())
+        .ceil()
+        .clamp(1.0, 2000.0) as usize;
+    for k in 0..=steps {
+        let s = k as f64 / steps as f64;
+        let (u, v) = (a.0 + s * (b.0 - a.0), a.1 + s * (b.1 - a.1));
+        if u >= 0.0 && v >= 0.0 {
+            image.set(u as usize, v as usize, c);
+        }
+    }
+}
