@@ -111,7 +111,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
         writer: Writer::spawn(writer::Files {
             csv: export::LiveCsv::new(&config.out_dir),
             recording,
-            rec: rec.clone(),
+            rec: rerun::RecordingStream::clone(&rec),
             dir: config.out_dir.clone(),
         })
         .context("recorder")?,
