@@ -71,7 +71,12 @@ pub fn run(args: &Args) -> eyre::Result<()> {
     )?;
 
     let linear_rate = solves_per_sec(&inputs, &Params::new(Method::Linear));
-    crate::stdout::outln!("\n{:<15} {:>14} {:>12}", "method", "solves/s", "vs linear")?;
+    crate::stdout::outln!(
+        "\n{:<15} {:>14} {:>12}",
+        "method",
+        "solves/s",
+        "vs linear ×"
+    )?;
     let mut nls_rate = 0.0;
     for (method, robust) in [
         (Method::Geometric, false),

@@ -275,7 +275,7 @@ fn sequence(
 fn table(out: &mut String, r: &SequenceReport) {
     if let Some(a) = &r.accuracy {
         *out += &format!(
-            "accuracy (3.1)      target {} at {:.3} m, tilt {:.1} deg, {} px on target\n",
+            "accuracy            target {} at {:.3} m, tilt {:.1} deg, {} px on target\n",
             a.target.replace('_', " "),
             a.target_distance_m,
             a.target_tilt_deg,
@@ -298,7 +298,7 @@ fn table(out: &mut String, r: &SequenceReport) {
     }
     if let Some(all) = &r.resolution.overall {
         *out += &format!(
-            "resolution (3.2)    min step {} mm, mean {:.2} mm, sd {:.2} mm, max {} mm over {} pairs\n",
+            "resolution          min step {} mm, mean {:.2} mm, sd {:.2} mm, max {} mm over {} pairs\n",
             all.min_nonzero_step_mm
                 .map_or("-".to_owned(), |s| s.to_string()),
             all.mean_step_mm,
@@ -326,13 +326,13 @@ fn table(out: &mut String, r: &SequenceReport) {
     {
         let (e, b) = bits;
         *out += &format!(
-            "entropy (3.3)       mean {:.2} bits, sd {:.2} bits over {} window(s) of {} frames\n",
+            "entropy             mean {:.2} bits, sd {:.2} bits over {} window(s) of {} frames\n",
             b.mean, b.sd, e.windows, e.window_frames
         );
     }
     let e = &r.edge_noise;
     *out += &format!(
-        "edge noise (3.4)    {} rim px{}, {:.1} % affected, band width {}, {} zero + {} flying px\n",
+        "edge noise          {} rim px{}, {:.1} % affected, band width {}, {} zero + {} flying px\n",
         e.rim_pixels,
         if e.used_mask { " (mask)" } else { "" },
         100.0 * e.affected_share,
@@ -345,7 +345,7 @@ fn table(out: &mut String, r: &SequenceReport) {
     );
     if let Some(s) = &r.structural_noise {
         *out += &format!(
-            "structural (3.5)    plane at {:.3} m, tilt {:.1} deg, rms {:.2} mm; rings {:.2} mm every {:.1} px; centre-edge {:+.2} mm\n",
+            "structural noise    plane at {:.3} m, tilt {:.1} deg, rms {:.2} mm; rings {:.2} mm every {:.1} px; centre-edge {:+.2} mm\n",
             s.plane_distance_m,
             s.plane_tilt_deg,
             s.rms_residual_mm,
@@ -454,17 +454,18 @@ fn multi_sensor(
         sensors.len(),
         calibration.display()
     );
-    out += "sensor  valid   floor normal (world)        offset m  rms mm  y@dome m  struct rms mm  rings mm/px    edge px  affected\n";
+    out += "sensor  valid %  floor normal (world, unit)  offset m  rms mm  floor@dome m  structural rms mm  rings mm/px  edge px  affected %\n";
     for (f, r) in check.sensors.iter().zip(&reports) {
         let s = r.structural_noise.as_ref();
         let e = &r.edge_noise;
         out += &format!(
-            "{:>6}  {:>5.1}%  ({:+.4}, {:+.4}, {:+.4})  {:>8.4}  {:>6.1}  {:>8.4}  {:>13}  {:>13}  {:>7}  {:>7.1}%\n",
+            "{:>6}  {:>7.1}  {:<26}  {:>8.4}  {:>6.1}  {:>12.4}  {:>17}  {:>11}  {:>7}  {:>10.1}\n",
             f.sensor,
             100.0 * f.valid_pixel_share,
-            f.normal[0],
-            f.normal[1],
-            f.normal[2],
+            format!(
+                "({:+.4}, {:+.4}, {:+.4})",
+                f.normal[0], f.normal[1], f.normal[2]
+            ),
             f.offset_m,
             1000.0 * f.rms_m,
             f.floor_height_at_dome_m,

@@ -253,17 +253,17 @@ fn render(r: &Report) -> String {
     );
     let _ = writeln!(
         out,
-        "{:<15} {:>8} {:>8} {:>8} {:>8} {:>22} {:>8} {:>8} {:>12} {:>10}",
+        "{:<15} {:>8} {:>8} {:>8} {:>8} {:>22} {:>8} {:>10} {:>16} {:>11}",
         "method",
-        "solves",
+        "solved %",
         "RMSE mm",
         "mean mm",
         "p95 mm",
         "RMSE x / y / z mm",
         "CRB mm",
-        "RMSE/CRB",
-        "best 1 sensor",
-        "vs linear"
+        "RMSE/CRB ×",
+        "best 1 sensor mm",
+        "vs linear %"
     );
     for m in &r.methods {
         let xyz = format!(
@@ -274,7 +274,7 @@ fn render(r: &Report) -> String {
         );
         let _ = writeln!(
             out,
-            "{:<15} {:>7.1}% {:>8} {:>8} {:>8} {:>22} {:>8} {:>8} {:>12} {:>9}%",
+            "{:<15} {:>8.1} {:>8} {:>8} {:>8} {:>22} {:>8} {:>10} {:>16} {:>11}",
             m.method,
             m.own.coverage * 100.0,
             mm(m.rmse_m),
@@ -296,17 +296,17 @@ fn render(r: &Report) -> String {
     if let Some(note) = range_methods_agree(r) {
         let _ = writeln!(out, "{note}");
     }
-    let _ = writeln!(out, "\nRMSE per joint, mm");
+    let _ = writeln!(out, "\nRMSE per joint");
     let _ = write!(out, "{:<15}", "joint");
     for m in &r.methods {
-        let _ = write!(out, " {:>14}", m.method);
+        let _ = write!(out, " {:>16}", format!("{} mm", m.method));
     }
     let _ = writeln!(out);
     for joint in &r.joints {
         let _ = write!(out, "{joint:<15}");
         for m in &r.methods {
             let value = m.per_joint_rmse_m.get(joint).copied().unwrap_or(f64::NAN);
-            let _ = write!(out, " {:>14}", mm(value));
+            let _ = write!(out, " {:>16}", mm(value));
         }
         let _ = writeln!(out);
     }
@@ -334,9 +334,10 @@ fn render(r: &Report) -> String {
     }
     let _ = writeln!(
         out,
-        "\nsolves: share of all joint samples the method solved. CRB: Cramér–Rao bound of the method's\n\
-         data model (ranges only, or full 3-D reports). best 1 sensor: the single sensor with the lowest\n\
-         RMSE. vs linear: RMSE change against thesis §4.2.2 linear trilateration."
+        "\nsolved: share of all joint samples the method solved. CRB: Cramér–Rao bound of the method's\n\
+         data model (ranges only, or full 3-D reports). RMSE/CRB: how many times the bound. best 1\n\
+         sensor: the single sensor with the lowest RMSE. vs linear: RMSE change against the thesis's\n\
+         linear trilateration (§4.2.2)."
     );
     out
 }

@@ -504,7 +504,7 @@ fn kinect_table(k: &KinectSim) -> String {
     let _ = writeln!(
         out,
         "{:<24} {:>8} {:>8} {:>10} {:>10}",
-        "parameter", "joints", "kinect", "difference", "tolerance"
+        "parameter (unit)", "joints", "kinect", "difference", "tolerance"
     );
     let r = &k.reference;
     let e = &k.summary;
@@ -741,7 +741,7 @@ fn table(args: &Args, notes: &[String], a: &GaitAnalysis) -> String {
     let _ = writeln!(
         out,
         "{:<24} {:>8} {:>8} {:>8} {:>8} {:>8} {:>4}",
-        "parameter", "mean", "sd", "left", "right", "asym%", "n"
+        "parameter (unit)", "mean", "SD", "left", "right", "asym. %", "n"
     );
     let rows: [(&str, &Stat, f64, usize); 9] = [
         ("stride length (m)", &s.stride_length_m, 1.0, 3),

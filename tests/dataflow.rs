@@ -17,7 +17,8 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{
-    LOCK, Run, f, finish, kill_9, node_pid, run_graph, spawn_graph, wait_until_streaming, workspace,
+    LOCK, Run, f, finish, kill_9, node_pid, rrd_blueprint_of, run_graph, spawn_graph,
+    wait_until_streaming, workspace,
 };
 use serde_json::Value;
 
@@ -93,7 +94,11 @@ fn check_simulated(run: &Run, sensors: usize, ntp_below_1ms: bool) -> Value {
         "{temporal:#?}"
     );
     assert!(
-        temporal.get("plots/knee_left/x").copied().unwrap_or(0) >= sets * 9 / 10,
+        temporal
+            .get("trajectories/x/knee_left")
+            .copied()
+            .unwrap_or(0)
+            >= sets * 9 / 10,
         "{temporal:#?}"
     );
     // Every pose's latency is plotted, warm-up included.
@@ -183,6 +188,124 @@ fn default_graph_meets_acceptance() {
         let markers = trigait_motion::read_markers(run.out_dir.join(name)).unwrap();
         assert_eq!(markers.frame_count(), clip.frame_count(), "{name}");
     }
+}
+
+/// The default graph's recording opens with the gait-lab layout: read back from the `.rrd`, its
+/// blueprint has the 3-D walkway with a framing eye, the stance/swing state timeline, the
+/// heel-strike/toe-off plot, the parameter table, knee and hip flexion charts, one trajectory
+/// panel per axis and the clock offset and sync error in separate panels; each view's origin
+/// holds the data it is meant to show; and the skeleton's annotation context declares exactly
+/// the joints logged, with no keypoint connection the viewer could fail to resolve (it warns
+/// "Keypoint connection … could not be resolved" for one whose joint a pose lacks).
+#[test]
+fn default_graph_opens_with_the_gait_lab_layout() {
+    let run = run_graph("dataflow.yml");
+    let s = run.summary();
+    let sets = s["sets_fused"].as_u64().unwrap();
+    let rrd = run.rrd();
+    let bp = rrd_blueprint_of(&run.out_dir.join("trigait.rrd"));
+    assert_eq!(bp["viewport"]["has_root"], true, "{bp:#}");
+    assert_eq!(bp["viewport"]["auto_views"], false, "{bp:#}");
+    let views = bp["views"].as_array().unwrap();
+    let view = |class: &str, origin: &str| -> &Value {
+        views
+            .iter()
+            .find(|v| {
+                v["class"] == class
+                    && v["origin"].as_str().map(|o| o.trim_start_matches('/')) == Some(origin)
+            })
+            .unwrap_or_else(|| panic!("no {class} view of {origin}: {bp:#}"))
+    };
+    // Temporal rows under an entity path (the view's content `$origin/**`).
+    let rows_under = |origin: &str| -> u64 {
+        rrd.temporal
+            .iter()
+            .filter(|(p, _)| *p == origin || p.starts_with(&format!("{origin}/")))
+            .map(|(_, n)| n)
+            .sum()
+    };
+    let scene = view("3D", "world");
+    assert!(
+        scene["properties"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|p| p == "EyeControls3D"),
+        "{scene:#}"
+    );
+    for k in 1..=3 {
+        assert!(
+            rrd.statics
+                .contains_key(&format!("world/sensors/k{k}/label"))
+        );
+    }
+    assert!(rrd.statics.contains_key("world/walkway"));
+    assert_eq!(rrd.temporal.get("world/fused_bones").copied(), Some(sets));
+    let events = s["gait"]["events_reported"].clone();
+    let reported = events["left"].as_u64().unwrap() + events["right"].as_u64().unwrap();
+    assert!(reported >= 12, "{:#}", s["gait"]);
+    for (class, origin, at_least) in [
+        ("StateTimeline", "gait/phase", reported),
+        ("TimeSeries", "gait/events", reported),
+        ("TextDocument", "gait/parameters", 3),
+        ("2D", "flexion/knee", 2),
+        ("2D", "flexion/hip", 2),
+        ("TimeSeries", "trajectories/x", sets * 6 * 9 / 10),
+        ("TimeSeries", "trajectories/y", sets * 6 * 9 / 10),
+        ("TimeSeries", "trajectories/z", sets * 6 * 9 / 10),
+        ("TimeSeries", "sync/offset_ms", 600),
+        ("TimeSeries", "sync/error_ms", 600),
+        ("TimeSeries", "timing", sets),
+    ] {
+        let v = view(class, origin);
+        let contents = v["contents"].as_array().unwrap();
+        assert!(
+            contents.iter().any(|q| q == "$origin/**" || q == "$origin"),
+            "{v:#}"
+        );
+        let rows = rows_under(origin);
+        assert!(
+            rows >= at_least,
+            "{origin}: {rows} rows, expected ≥ {at_least}"
+        );
+    }
+    assert!(rrd.statics.contains_key("key"), "{:#?}", rrd.statics);
+    view("TextDocument", "key");
+    // Flexion curves of both feet, drawn as each stride settled.
+    for joint in ["knee", "hip"] {
+        for foot in ["left", "right"] {
+            assert!(
+                rrd.temporal
+                    .contains_key(&format!("flexion/{joint}/{foot}/mean")),
+                "{:#?}",
+                rrd.temporal
+            );
+        }
+    }
+    let ctx = &bp["annotation"]["world/fused"];
+    let legs: Vec<u64> = {
+        let mut l: Vec<u64> = trigait_skeleton::Joint::LEGS
+            .iter()
+            .map(|j| j.index() as u64)
+            .collect();
+        l.sort_unstable();
+        l
+    };
+    let ids = |key: &str| -> Vec<u64> {
+        ctx[key]
+            .as_array()
+            .unwrap_or_else(|| panic!("{key}: {bp:#}"))
+            .iter()
+            .map(|v| v.as_u64().unwrap())
+            .collect()
+    };
+    assert_eq!(ids("keypoints"), legs, "{ctx:#}");
+    assert_eq!(ids("logged_ever"), legs, "{ctx:#}");
+    let every = ids("logged_every_pose");
+    assert!(
+        ids("connections").iter().all(|c| every.contains(c)),
+        "a connection names a joint some pose lacks: {ctx:#}"
+    );
 }
 
 /// The thesis slot schedule leaves inter-sensor skew that interpolation removes: on the same

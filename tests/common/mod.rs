@@ -407,18 +407,29 @@ pub fn pids() -> Vec<u32> {
 /// What `scripts/rrd_rows.py` prints for any `.rrd`: temporal, static and blueprint rows per
 /// entity path.
 pub fn rrd_json_of(rrd: &Path) -> Value {
+    python_json("scripts/rrd_rows.py", rrd)
+}
+
+/// What `scripts/rrd_blueprint.py` prints for an `.rrd`: the views of its default layout
+/// (class, name, origin, content queries, properties), the viewport, and every annotation
+/// context with the keypoints it declares and the keypoints the points log.
+pub fn rrd_blueprint_of(rrd: &Path) -> Value {
+    python_json("scripts/rrd_blueprint.py", rrd)
+}
+
+fn python_json(script: &str, rrd: &Path) -> Value {
     let out = Command::new(python())
-        .arg(workspace().join("scripts/rrd_rows.py"))
+        .arg(workspace().join(script))
         .arg(rrd)
         .output()
-        .expect("running scripts/rrd_rows.py");
+        .unwrap_or_else(|e| panic!("running {script}: {e}"));
     assert!(
         out.status.success(),
-        "reading {} back failed: {}",
+        "reading {} back with {script} failed: {}",
         rrd.display(),
         String::from_utf8_lossy(&out.stderr)
     );
-    serde_json::from_slice(&out.stdout).expect("rrd_rows.py prints JSON")
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{script} prints JSON: {e}"))
 }
 
 fn row_map(v: &Value, key: &str) -> BTreeMap<String, u64> {

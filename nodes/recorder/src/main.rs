@@ -9,6 +9,7 @@
 //! `summary.json` whole.
 //! Configuration: [`config`]; entity paths: [`viz`].
 
+mod blueprint;
 mod config;
 mod export;
 mod gait;
@@ -73,7 +74,7 @@ impl<'a> Input<'a> {
 
 /// The recording and what is accumulated for the files written at the end.
 struct Recorder {
-    rec: rerun::RecordingStream,
+    rec: viz::Viz,
     gait: gait::Gait,
     stats: Stats,
     ring: Ring,
@@ -92,7 +93,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     std::fs::create_dir_all(&config.out_dir)
         .with_context(|| format!("recorder: creating OUTPUT_DIR={}", config.out_dir.display()))?;
     let rec = viz::open(&config)?;
-    viz::send_blueprint(&rec).context("recorder: sending the default blueprint")?;
+    viz::send_blueprint(&rec, &config.rig).context("recorder: sending the default blueprint")?;
     viz::log_static(&rec, &config.rig).context("recorder: logging the rig")?;
     export::clear_earlier_run(&config.out_dir).context("recorder: OUTPUT_DIR")?;
     let recording = config
@@ -110,7 +111,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
         writer: Writer::spawn(writer::Files {
             csv: export::LiveCsv::new(&config.out_dir),
             recording,
-            rec: rec.clone(),
+            rec: rerun::RecordingStream::clone(&rec),
             dir: config.out_dir.clone(),
         })
         .context("recorder")?,
@@ -188,7 +189,7 @@ impl Recorder {
             .collect();
         let sent = get_integer_param(params, ports::TRIGGER_SENT_NANOS);
         let logged = viz::log_pose(&self.rec, &pose, &truth, sent.map(|sent| now - sent))
-            .and_then(|()| self.gait.push(&self.rec, &pose));
+            .and_then(|()| self.gait.push(&pose));
         self.ring.push(&pose);
         self.trajectory.push(&pose);
         if let Some(lines) = &mut self.lines {
@@ -275,7 +276,7 @@ impl Recorder {
             self.longest_update.as_secs_f64() * 1e3
         );
         let mut summary = self.stats.summary(now_nanos(), true);
-        let (gait_report, gait_logged) = self.gait.finish(&self.rec);
+        let (gait_report, gait_logged) = self.gait.finish();
         summary.gait = Some(gait_report);
         if let Err(e) = gait_logged {
             error!("rerun logging of the gait report failed: {e:#}");

@@ -1,4 +1,4 @@
-//! Bad input is a clear error naming the file, never a panic (issue 6 acceptance).
+//! Bad input is a clear error naming the file, never a panic.
 
 // Test helpers outside `#[test]` functions panic on failure by design.
 #![allow(clippy::unwrap_used, clippy::expect_used)]

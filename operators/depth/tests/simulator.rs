@@ -1,4 +1,4 @@
-//! Simulator round trips (issue 6 acceptance): each metric recovers the property injected into
+//! Simulator round trips: each metric recovers the property injected into
 //! simulated frames within 10 %.
 
 // Test helpers outside `#[test]` functions panic on failure by design.

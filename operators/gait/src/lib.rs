@@ -34,7 +34,8 @@
 //! 5. [`filter`] offers a zero-lag Butterworth low-pass (Winter 2009) and the One-Euro filter
 //!    (Casiez et al. 2012) for noisy trajectories; [`plot`] draws trajectories with events and a
 //!    footfall diagram as SVG and PNG, in memory.
-//! 6. [`stream`] holds the *causal* filters a live dataflow can run (One-Euro, a causal
+//! 6. [`angles`] gives sagittal hip and knee flexion per gait cycle, normalised to 0–100 %.
+//! 7. [`stream`] holds the *causal* filters a live dataflow can run (One-Euro, a causal
 //!    Butterworth), one state per joint, and [`LiveGait`] runs the event detection over a growing
 //!    stream of poses (the recorder node's gait events and `summary.json` section).
 //!
@@ -59,6 +60,7 @@
 
 #![warn(missing_docs)]
 
+pub mod angles;
 pub mod clean;
 mod error;
 mod events;
@@ -72,12 +74,13 @@ mod signal;
 pub mod stream;
 pub mod treadmill;
 
+pub use angles::{CYCLE_SAMPLES, FlexionCycle, flexion_cycles, mean_curve, sagittal_flexion_deg};
 pub use clean::{CleanParams, DataQuality, clean};
 pub use error::{Error, Result};
 pub use events::{
     EventKind, EventMethod, EventParams, Foot, GaitEvent, RUNNING_FLIGHT_FRACTION, detect_events,
 };
-pub use live::{FootCounts, LiveGait, LiveGaitParams, LiveReport, TimedEvent};
+pub use live::{FootCounts, LiveAnalysis, LiveGait, LiveGaitParams, LiveReport, TimedEvent};
 pub use params::{
     Comparison, GaitAnalysis, GaitParams, Stat, Step, Stride, Summary, Tolerances, analyse,
     analyse_landmarks, compare, strides, summarise, summarise_with_steps,

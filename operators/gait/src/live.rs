@@ -24,8 +24,8 @@ use trigait_skeleton::{Joint, MotionClip};
 
 use crate::segment::ExclusionReason;
 use crate::{
-    EventKind, EventMethod, Foot, GaitEvent, GaitParams, Summary, analyse, detect_events,
-    segment_walk,
+    EventKind, EventMethod, Foot, GaitAnalysis, GaitEvent, GaitParams, Result, Summary, analyse,
+    detect_events, segment_walk,
 };
 
 /// Tuning of [`LiveGait`].
@@ -136,6 +136,29 @@ pub struct LiveReport {
     pub non_finite_skipped: u64,
 }
 
+/// The full analysis of the poses retained so far ([`LiveGait::analysis`]), with what maps its
+/// clip time back onto the stream's clock.
+#[derive(Debug)]
+pub struct LiveAnalysis {
+    /// The retained poses on a uniform grid (clip time 0 = `first_nanos`).
+    pub clip: MotionClip,
+    /// Stamp (ns) of the clip's frame 0.
+    pub first_nanos: i64,
+    /// Events and strides ending after this stamp (ns) may still move or vanish as poses come
+    /// ([`LiveGaitParams::settle_secs`] behind the newest pose).
+    pub settled_until_nanos: i64,
+    /// The analysis of `clip`, or why there is none yet.
+    pub analysis: Result<GaitAnalysis>,
+}
+
+impl LiveAnalysis {
+    /// The stream stamp (ns) of clip time `secs`.
+    #[must_use]
+    pub fn stamp_nanos(&self, secs: f64) -> i64 {
+        self.first_nanos + (secs * 1e9).round() as i64
+    }
+}
+
 /// Gait analysis over a growing stream of poses. See the module docs.
 #[derive(Debug, Clone)]
 pub struct LiveGait {
@@ -223,6 +246,22 @@ impl LiveGait {
             .unwrap_or_default();
         let limit = newest - (self.params.settle_secs * 1e9) as i64;
         self.take_new(&grid, &events, Some(limit))
+    }
+
+    /// The full analysis (strides, parameters) of everything retained, for a running display;
+    /// `None` with fewer than [`MIN_POSES`] poses. It costs one offline analysis of the window,
+    /// so call it when [`Self::poll`] reported a heel strike, not on every pose.
+    #[must_use]
+    pub fn analysis(&self) -> Option<LiveAnalysis> {
+        let newest = *self.samples.last_key_value()?.0;
+        let grid = self.grid()?;
+        let analysis = analyse(&grid.clip, &self.params.gait);
+        Some(LiveAnalysis {
+            settled_until_nanos: newest - (self.params.settle_secs * 1e9) as i64,
+            first_nanos: grid.first_nanos,
+            clip: grid.clip,
+            analysis,
+        })
     }
 
     /// Analyses everything retained: reports the events not yet reported and the parameters
@@ -510,6 +549,33 @@ mod tests {
             report.events_reported.left + report.events_reported.right,
             streamed.len() + rest.len()
         );
+    }
+
+    /// The running analysis of the lap so far has strides whose heel strikes map onto the
+    /// stream's stamps, and knee flexion cycles that peak in swing; with too few poses there is
+    /// none.
+    #[test]
+    fn running_analysis_maps_strides_onto_the_stream() {
+        let rows = stream(8.0, 0.005, 0);
+        let mut live = LiveGait::new(LiveGaitParams::default());
+        assert!(live.analysis().is_none());
+        feed(&mut live, &rows);
+        let a = live.analysis().unwrap();
+        let analysis = a.analysis.as_ref().unwrap();
+        assert!(analysis.strides.len() >= 2, "{analysis:#?}");
+        let (first, last) = (rows[0].0, rows[rows.len() - 1].0);
+        assert_eq!(a.first_nanos, first);
+        assert_eq!(a.settled_until_nanos, last - 1_500_000_000);
+        for s in &analysis.strides {
+            let (t0, t1) = (a.stamp_nanos(s.start_secs), a.stamp_nanos(s.end_secs));
+            assert!(first <= t0 && t0 < t1 && t1 <= last);
+        }
+        let (cycles, _) = crate::flexion_cycles(&a.clip, analysis);
+        assert!(!cycles.is_empty());
+        for c in &cycles {
+            let peak = c.knee_deg.iter().copied().fold(f64::MIN, f64::max);
+            assert!((45.0..75.0).contains(&peak), "{peak}");
+        }
     }
 
     /// Too little data, a standing subject, NaN: a report with a reason, never a panic.
