@@ -44,6 +44,7 @@ mod messages_md;
 mod ntp;
 pub mod ports;
 mod skeleton;
+mod status;
 mod timing;
 mod truth;
 
@@ -53,6 +54,7 @@ pub use depth::DepthFrameMessage;
 pub use fused::{FusedJoint, FusedPose};
 pub use ntp::NtpExchange;
 pub use skeleton::SkeletonFrameMessage;
+pub use status::SensorStatus;
 pub use timing::FrameTiming;
 pub use truth::GroundTruth;
 
