@@ -20,8 +20,8 @@
 //! Metadata: `trigait.device_nanos` (unwrapped device time), `trigait.device_sequence`,
 //! `trigait.host_arrival_nanos`, `trigait.lost_before`. NTP requests are answered on the host
 //! clock, the same clock as the stamps, so `sync` measures the host's offset to the server.
-//! Output `ir` (when `FREENECT2_IR` is on): the IR amplitude (0–65535, unitless) of the same
-//! capture in the `depth_frame` layout; the schema has no IR message of its own yet.
+//! Output `ir` (when `FREENECT2_IR` is on): an `ir_frame`, the IR amplitude (0–65535,
+//! unitless) of the same capture, with the depth frame's `seq` and stamp.
 //! Output `status` (when declared): a `sensor_status` on every state change and every
 //! `FREENECT2_STATUS_MILLIS` in between — streaming, or degraded (stalled, absent, failed) with
 //! the reason and frames lost so far — so a consumer sees a stalled or unplugged sensor while
@@ -61,7 +61,7 @@ pub const FREENECT2_RESCAN_MILLIS: &str = "FREENECT2_RESCAN_MILLIS";
 pub const FREENECT2_STATUS_MILLIS: &str = "FREENECT2_STATUS_MILLIS";
 
 /// Output port of the IR frames.
-pub const IR: &str = "ir";
+pub const IR: &str = ports::IR;
 /// Metadata: unwrapped device time, ns.
 pub const DEVICE_NANOS: &str = "trigait.device_nanos";
 /// Metadata: the device's sequence number.

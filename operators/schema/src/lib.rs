@@ -39,6 +39,7 @@ mod aligned;
 mod codec;
 mod depth;
 mod fused;
+mod ir;
 #[cfg(test)]
 mod messages_md;
 mod ntp;
@@ -52,6 +53,7 @@ pub use arrow_array::{Array, ArrayRef};
 pub use arrow_schema::DataType;
 pub use depth::DepthFrameMessage;
 pub use fused::{FusedJoint, FusedPose};
+pub use ir::IrFrameMessage;
 pub use ntp::NtpExchange;
 pub use skeleton::SkeletonFrameMessage;
 pub use status::SensorStatus;

@@ -12,8 +12,8 @@ use arrow_schema::{DataType, Fields};
 use trigait_skeleton::{Joint, TrackingState};
 
 use crate::{
-    DepthFrameMessage, FrameTiming, FusedPose, GroundTruth, Message, NtpExchange, SensorStatus,
-    SkeletonFrameMessage, ports,
+    DepthFrameMessage, FrameTiming, FusedPose, GroundTruth, IrFrameMessage, Message, NtpExchange,
+    SensorStatus, SkeletonFrameMessage, ports,
 };
 
 const DOC: &str = include_str!("../MESSAGES.md");
@@ -35,6 +35,7 @@ fn messages() -> BTreeMap<&'static str, DataType> {
         (FusedPose::NAME, FusedPose::data_type()),
         (DepthFrameMessage::NAME, DepthFrameMessage::data_type()),
         (SensorStatus::NAME, SensorStatus::data_type()),
+        (IrFrameMessage::NAME, IrFrameMessage::data_type()),
     ])
 }
 
@@ -287,6 +288,7 @@ fn check(doc: &str) -> Vec<String> {
         ports::FRAME_TIMING,
         ports::FUSED_POSE,
         ports::DEPTH,
+        ports::IR,
         ports::STATUS,
     ]
     .into_iter()
