@@ -227,6 +227,42 @@ pub fn log_legs(
     Ok(())
 }
 
+/// The entity of `sensor`'s device state (`sensors/k1/device`).
+#[must_use]
+pub fn device_entity(sensor: &str) -> String {
+    format!("sensors/{sensor}/device")
+}
+
+/// Logs a sensor's device state at `stamp_nanos` (host clock) on the `host_time` timeline: a
+/// text line (a warning while degraded) and `device/degraded` as 0 or 1, so the viewer shows
+/// when a stalled or unplugged sensor stopped sending and when it came back.
+///
+/// # Errors
+/// rerun refused a log call (a closed sink).
+pub fn log_device_state(
+    rec: &RecordingStream,
+    sensor: &str,
+    stamp_nanos: i64,
+    degraded: bool,
+    detail: &str,
+) -> Result<(), RecordingStreamError> {
+    rec.set_timestamp_nanos_since_epoch("host_time", stamp_nanos);
+    let level = if degraded {
+        rerun::components::TextLogLevel::WARN
+    } else {
+        rerun::components::TextLogLevel::INFO
+    };
+    let entity = device_entity(sensor);
+    rec.log(
+        entity.as_str(),
+        &rerun::TextLog::new(format!("{sensor}: {detail}")).with_level(level),
+    )?;
+    rec.log(
+        format!("{entity}/degraded"),
+        &rerun::Scalars::single(f64::from(u8::from(degraded))),
+    )
+}
+
 /// A legend as markdown: what the map shows, its discrete colours and its colour scale.
 #[must_use]
 pub fn legend_markdown(legend: &MapLegend) -> String {

@@ -1,5 +1,5 @@
 //! Per-frame cost of the `freenect2` backend's work on a capture — 512×424 depth and IR floats
-//! rounded to whole units, encoded as two Arrow `depth_frame` messages, and their buffers copied
+//! rounded to whole units, encoded as Arrow `depth_frame` and `ir_frame` messages, and their buffers copied
 //! once into a fresh contiguous buffer, as dora's `send_output` copies them into a shared-memory
 //! sample — against a same-run baseline, a plain copy of the same two float frames (what moving
 //! them at all costs), so the printed ratio does not depend on how busy the machine is.

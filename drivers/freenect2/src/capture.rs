@@ -16,7 +16,7 @@
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use trigait_schema::DepthFrameMessage;
+use trigait_schema::{DepthFrameMessage, IrFrameMessage};
 
 use crate::{Device, DeviceInfo, Driver, Error, Frame, FrameKind, Pipeline, Streams, TICK_NANOS};
 
@@ -128,23 +128,41 @@ pub struct Captured {
 }
 
 impl Captured {
-    /// The `depth_frame` messages of this capture: depth in whole mm and, when captured, the
-    /// IR amplitude in the same layout; both stamped on the host clock, numbered `seq`.
+    /// The messages of this capture: the `depth_frame` in whole mm and, when captured, the
+    /// `ir_frame` of the IR amplitude; both stamped on the host clock, numbered `seq`.
     #[must_use]
     pub fn messages(
         &self,
         sensor_id: &str,
         seq: u64,
-    ) -> (DepthFrameMessage, Option<DepthFrameMessage>) {
-        let message = |frame: &Frame| DepthFrameMessage {
+    ) -> (DepthFrameMessage, Option<IrFrameMessage>) {
+        let size = |frame: &Frame| {
+            (
+                u32::try_from(frame.width).unwrap_or(0),
+                u32::try_from(frame.height).unwrap_or(0),
+            )
+        };
+        let (width, height) = size(&self.depth);
+        let depth = DepthFrameMessage {
             sensor_id: sensor_id.to_owned(),
             seq,
             local_stamp_nanos: self.stamp_nanos,
-            width: u32::try_from(frame.width).unwrap_or(0),
-            height: u32::try_from(frame.height).unwrap_or(0),
-            depth_mm: frame.to_u16(),
+            width,
+            height,
+            depth_mm: self.depth.to_u16(),
         };
-        (message(&self.depth), self.ir.as_ref().map(message))
+        let ir = self.ir.as_ref().map(|frame| {
+            let (width, height) = size(frame);
+            IrFrameMessage {
+                sensor_id: sensor_id.to_owned(),
+                seq,
+                local_stamp_nanos: self.stamp_nanos,
+                width,
+                height,
+                amplitude: frame.to_u16(),
+            }
+        });
+        (depth, ir)
     }
 }
 

@@ -3,10 +3,13 @@
 //! sensor's [`trigait_depth::SequenceAnalyzer`] — the code `trigait depth-metrics` runs on PNG
 //! files — and every `REPORT_EVERY_FRAMES` frames the sensor's report is recomputed, written to
 //! `OUTPUT_DIR/depth-metrics.json` and, with `RERUN`, its maps and scalars logged to rerun
-//! through [`trigait_depth_rerun`]. A malformed message or a frame of the wrong size is counted
-//! and skipped. Configuration: [`config`].
+//! through [`trigait_depth_rerun`]. Each `status_<sensor>` input (a `sensor_status`, optional)
+//! gives that sensor's device state: a change is logged to rerun and the report file's `devices`
+//! holds each sensor's state and degraded time ([`devices`]). A malformed message or a frame of
+//! the wrong size is counted and skipped. Configuration: [`config`].
 
 mod config;
+mod devices;
 mod state;
 #[cfg(test)]
 mod tests;
@@ -15,9 +18,10 @@ use dora_node_api::{DoraNode, Event, EventStream};
 use eyre::Context;
 use tracing::{info, warn};
 use trigait_depth_rerun::RecordingStream;
-use trigait_schema::ports;
+use trigait_schema::{Message, SensorStatus, ports};
 
 use crate::config::Config;
+use crate::devices::Devices;
 use crate::state::{Pushed, Sensors};
 
 fn main() -> eyre::Result<()> {
@@ -35,7 +39,9 @@ pub struct Counters {
     pub analysed: u64,
     /// Messages refused (malformed or wrong size).
     pub refused: u64,
-    /// Inputs whose id is not `depth_<sensor>`.
+    /// Device state reports received.
+    pub statuses: u64,
+    /// Inputs whose id is not `depth_<sensor>` or `status_<sensor>`.
     pub unknown: u64,
 }
 
@@ -56,9 +62,39 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
     let json = config.output_dir.join(config::REPORT_FILE);
     let mut sensors = Sensors::new(config.params, config.report_every);
     let mut counters = Counters::default();
+    let mut devices = Devices::default();
     while let Some(event) = events.recv() {
         trigait_node_log::warn_drops(&mut events);
         match event {
+            Event::Input { id, data, .. }
+                if ports::sensor_of(id.as_str(), ports::STATUS_INPUT_PREFIX).is_some() =>
+            {
+                match SensorStatus::decode(data.as_array().as_ref()) {
+                    Ok(status) => {
+                        counters.statuses += 1;
+                        if devices.push(&status) {
+                            info!("{}: {}", status.sensor_id, status.detail);
+                            if let Some(rec) = &rec {
+                                trigait_depth_rerun::log_device_state(
+                                    rec,
+                                    &status.sensor_id,
+                                    status.stamp_nanos,
+                                    status.is_degraded(),
+                                    &status.detail,
+                                )?;
+                            }
+                            sensors.write_json(&json, &devices)?;
+                        }
+                    }
+                    Err(e) => {
+                        counters.refused += 1;
+                        warn!(
+                            input = id.as_str(),
+                            "skipping a malformed sensor_status: {e}"
+                        );
+                    }
+                }
+            }
             Event::Input { id, data, .. } => {
                 let Some(sensor) = ports::sensor_of(id.as_str(), ports::DEPTH_INPUT_PREFIX) else {
                     counters.unknown += 1;
@@ -74,7 +110,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                     (Pushed::ReportDue, _) => {
                         counters.analysed += 1;
                         sensors.report(sensor, rec.as_ref())?;
-                        sensors.write_json(&json)?;
+                        sensors.write_json(&json, &devices)?;
                     }
                 }
             }
@@ -82,7 +118,7 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                 if let Some(sensor) = ports::sensor_of(id.as_str(), ports::DEPTH_INPUT_PREFIX)
                     && sensors.report(sensor, rec.as_ref())?
                 {
-                    sensors.write_json(&json)?;
+                    sensors.write_json(&json, &devices)?;
                 }
             }
             Event::Stop(_) => {}
@@ -91,14 +127,15 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
         }
     }
     sensors.report_all(rec.as_ref())?;
-    sensors.write_json(&json)?;
+    sensors.write_json(&json, &devices)?;
     // Dropping the stream flushes the .rrd footer.
     drop(rec);
     info!(
-        "{} frames analysed, {} refused, {} unknown inputs; report in {}",
+        "{} frames analysed, {} refused, {} unknown inputs, {} device states; report in {}",
         counters.analysed,
         counters.refused,
         counters.unknown,
+        counters.statuses,
         json.display()
     );
     Ok(counters)

@@ -79,6 +79,8 @@ struct Document<'a> {
     entropy_window: usize,
     target_distance_m: Option<f64>,
     sensors: BTreeMap<&'a str, &'a SensorEntry>,
+    /// Device states (`status_<sensor>` inputs), empty when none is wired.
+    devices: &'a BTreeMap<String, crate::devices::DeviceEntry>,
 }
 
 impl Sensors {
@@ -218,7 +220,7 @@ impl Sensors {
     ///
     /// # Errors
     /// The file cannot be written.
-    pub fn write_json(&self, path: &Path) -> eyre::Result<()> {
+    pub fn write_json(&self, path: &Path, devices: &crate::devices::Devices) -> eyre::Result<()> {
         let doc = Document {
             tool: "trigait depth-metrics node",
             report_every_frames: self.report_every,
@@ -229,6 +231,7 @@ impl Sensors {
                 .iter()
                 .map(|(k, s)| (k.as_str(), &s.entry))
                 .collect(),
+            devices: devices.entries(),
         };
         let text = serde_json::to_string_pretty(&doc).context("serialising the report")?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {

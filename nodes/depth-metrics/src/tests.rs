@@ -6,7 +6,7 @@ use dora_node_api::integration_testing::{TestingOptions, drain_outputs};
 use trigait_depth::sim::{Scene, SimParams, Simulator};
 use trigait_depth_rerun::Sink;
 use trigait_node_testing::{init_node, input_event, lookup, scratch_dir};
-use trigait_schema::{ArrayRef, DepthFrameMessage, Message, NtpExchange};
+use trigait_schema::{ArrayRef, DepthFrameMessage, Message, NtpExchange, SensorStatus};
 
 use crate::config::Config;
 use crate::state::{Pushed, Sensors};
@@ -112,7 +112,9 @@ fn frames_are_analysed_and_bad_ones_counted() {
 
     let dir = scratch_dir("depth-metrics-node-test");
     let path = dir.join("depth-metrics.json");
-    sensors.write_json(&path).unwrap();
+    sensors
+        .write_json(&path, &crate::devices::Devices::default())
+        .unwrap();
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(v["sensors"]["k1"]["frames_analysed"], 30);
@@ -177,6 +179,33 @@ fn depth_frames_in_report_out() {
     events.push(serde_json::json!(
         {"time_offset_secs": 0.06, "type": "Input", "id": "frame_k1", "data": [1]}
     ));
+    // k2's device stalls for 1.5 s (reported twice while it lasts) and comes back.
+    let s = 1_000_000_000_i64;
+    for (i, (state, since, at)) in [
+        (SensorStatus::STREAMING, 0, 0),
+        (SensorStatus::STALLED, 2 * s, 2 * s),
+        (SensorStatus::STALLED, 2 * s, 3 * s),
+        (SensorStatus::STREAMING, 7 * s / 2, 7 * s / 2),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let status = SensorStatus {
+            sensor_id: "k2".into(),
+            stamp_nanos: at,
+            state: state.into(),
+            detail: format!("k2 {state}"),
+            since_nanos: since,
+            lost_frames: 45 * i as u64,
+        };
+        events.push(input_event(
+            &dir,
+            &format!("status_{i}"),
+            0.01 + i as f64 * 0.01,
+            "status_k2",
+            status.encode().unwrap(),
+        ));
+    }
     events.push(serde_json::json!({"time_offset_secs": 0.07, "type": "Stop"}));
     let (node, stream, mut rx) = init_node(
         serde_json::json!({"id": "depth-metrics", "events": events}),
@@ -190,14 +219,30 @@ fn depth_frames_in_report_out() {
     .unwrap();
     let counters = crate::run(config, node, stream).unwrap();
     assert_eq!(
-        (counters.analysed, counters.refused, counters.unknown),
-        (25, 1, 1)
+        (
+            counters.analysed,
+            counters.refused,
+            counters.unknown,
+            counters.statuses
+        ),
+        (25, 1, 1, 4)
     );
     assert!(drain_outputs(&mut rx).is_empty(), "the node has no outputs");
 
     let text = std::fs::read_to_string(out.join("depth-metrics.json")).unwrap();
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     assert_eq!(v["report_every_frames"], 5);
+    let k2 = &v["devices"]["k2"];
+    assert_eq!(k2["state"], "streaming", "{k2}");
+    assert_eq!(
+        (&k2["degraded_spells"], &k2["reports"]),
+        (&1.into(), &4.into())
+    );
+    assert!(
+        (k2["degraded_secs"].as_f64().unwrap() - 1.5).abs() < 1e-9,
+        "{k2}"
+    );
+    assert_eq!(k2["lost_frames"], 135);
     let k3 = &v["sensors"]["k3"];
     assert_eq!(
         (&k3["frames_received"], &k3["malformed"]),

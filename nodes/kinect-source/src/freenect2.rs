@@ -12,6 +12,7 @@
 //! | `FREENECT2_IR` | bool | `false` | also send IR amplitude on `ir` (see below) |
 //! | `FREENECT2_STALL_MILLIS` | ms | `1000` | no frame for this long → degraded |
 //! | `FREENECT2_RESCAN_MILLIS` | ms | `2000` | re-enumeration period while degraded |
+//! | `FREENECT2_STATUS_MILLIS` | ms | `500` | period of the `status` report |
 //!
 //! Output `depth`: `depth_frame` with whole millimetres (libfreenect2's float mm rounded; no data
 //! = 0), `local_stamp_nanos` the capture instant on the host clock (device time mapped by the
@@ -19,8 +20,12 @@
 //! Metadata: `trigait.device_nanos` (unwrapped device time), `trigait.device_sequence`,
 //! `trigait.host_arrival_nanos`, `trigait.lost_before`. NTP requests are answered on the host
 //! clock, the same clock as the stamps, so `sync` measures the host's offset to the server.
-//! Output `ir` (when `FREENECT2_IR` is on): the IR amplitude (0–65535, unitless) of the same
-//! capture in the `depth_frame` layout; the schema has no IR message of its own yet.
+//! Output `ir` (when `FREENECT2_IR` is on): an `ir_frame`, the IR amplitude (0–65535,
+//! unitless) of the same capture, with the depth frame's `seq` and stamp.
+//! Output `status` (when declared): a `sensor_status` on every state change and every
+//! `FREENECT2_STATUS_MILLIS` in between — streaming, or degraded (stalled, absent, failed) with
+//! the reason and frames lost so far — so a consumer sees a stalled or unplugged sensor while
+//! its frames have stopped.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -31,10 +36,11 @@ use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{DoraNode, Event, EventStream, MetadataParameters, Parameter};
 use eyre::{Context, bail, eyre};
 use tracing::{info, warn};
+use trigait_freenect2::capture::Degraded;
 use trigait_freenect2::capture::{Capture, CaptureConfig, Captured, Counters, Selector, State};
 use trigait_freenect2::{Driver, Pipeline, Streams};
 use trigait_node_config::{env_flag, env_number_where, env_value};
-use trigait_schema::{Message, NtpExchange, ports};
+use trigait_schema::{Message, NtpExchange, SensorStatus, ports};
 
 use crate::backend::now_nanos;
 use crate::config::{self, Config};
@@ -51,9 +57,11 @@ pub const FREENECT2_IR: &str = "FREENECT2_IR";
 pub const FREENECT2_STALL_MILLIS: &str = "FREENECT2_STALL_MILLIS";
 /// Env var: rescan period.
 pub const FREENECT2_RESCAN_MILLIS: &str = "FREENECT2_RESCAN_MILLIS";
+/// Env var: status report period.
+pub const FREENECT2_STATUS_MILLIS: &str = "FREENECT2_STATUS_MILLIS";
 
 /// Output port of the IR frames.
-pub const IR: &str = "ir";
+pub const IR: &str = ports::IR;
 /// Metadata: unwrapped device time, ns.
 pub const DEVICE_NANOS: &str = "trigait.device_nanos";
 /// Metadata: the device's sequence number.
@@ -83,6 +91,8 @@ pub struct Freenect2Config {
     pub capture: CaptureConfig,
     /// Send IR frames on `ir`.
     pub send_ir: bool,
+    /// Period of the `status` report.
+    pub status_every: Duration,
 }
 
 impl Freenect2Config {
@@ -139,7 +149,12 @@ impl Freenect2Config {
         capture.stall_after = millis(FREENECT2_STALL_MILLIS, 1000.0)?;
         capture.rescan_every = millis(FREENECT2_RESCAN_MILLIS, 2000.0)?;
         capture.reopen_after = capture.stall_after * 5;
-        Ok(Self { capture, send_ir })
+        let status_every = millis(FREENECT2_STATUS_MILLIS, 500.0)?;
+        Ok(Self {
+            capture,
+            send_ir,
+            status_every,
+        })
     }
 }
 
@@ -251,6 +266,8 @@ pub fn run(
     let depth_out = DataId::from(ports::DEPTH.to_owned());
     let ir_out = DataId::from(IR.to_owned());
     let ntp_out = DataId::from(ports::NTP_REPLY.to_owned());
+    let status_out = DataId::from(ports::STATUS.to_owned());
+    let mut status = StatusReport::new(&config.sensor_id, f2.status_every);
     let stop = Arc::new(AtomicBool::new(false));
     let queue = Arc::new(FrameQueue::default());
     let (tx, rx) = mpsc::channel();
@@ -275,8 +292,16 @@ pub fn run(
     let mut done = false;
     let result = (|| -> eyre::Result<()> {
         loop {
-            let Ok(msg) = rx.recv() else {
-                return Ok(());
+            if status.due() {
+                let array = status.message().encode().context("encoding the status")?;
+                node.send_output(status_out.clone(), MetadataParameters::default(), array)
+                    .context("kinect-source: sending status")?;
+                status.sent();
+            }
+            let msg = match rx.recv_timeout(status.wait()) {
+                Ok(msg) => msg,
+                Err(mpsc::RecvTimeoutError::Timeout) => continue,
+                Err(mpsc::RecvTimeoutError::Disconnected) => return Ok(()),
             };
             match msg {
                 // A stop is on its way behind this frame: it is not sent.
@@ -285,6 +310,7 @@ pub fn run(
                     summary.unsent_at_stop += 1;
                 }
                 Msg::Frame(captured, seq) => {
+                    status.lost_frames += captured.lost_before;
                     let sent = (|| {
                         let (depth, ir) = encode(&config.sensor_id, seq, &captured, f2.send_ir)?;
                         let params = metadata(&captured);
@@ -312,6 +338,7 @@ pub fn run(
                         State::Streaming => info!("Kinect v2: {state}"),
                         _ => warn!("Kinect v2: {state}"),
                     }
+                    status.change(&state);
                     summary.states.push(state);
                 }
                 Msg::Done(counters) => {
@@ -390,6 +417,69 @@ pub fn run(
         summary.ntp_answered
     );
     result.map(|()| summary)
+}
+
+/// The `status` report: the current state, since when, frames lost so far, and when the next
+/// report is due (at once after a change, then every period).
+#[derive(Debug)]
+struct StatusReport {
+    sensor_id: String,
+    every: Duration,
+    state: State,
+    since_nanos: i64,
+    lost_frames: u64,
+    next: Instant,
+}
+
+impl StatusReport {
+    fn new(sensor_id: &str, every: Duration) -> Self {
+        Self {
+            sensor_id: sensor_id.to_owned(),
+            every,
+            state: State::Starting,
+            since_nanos: now_nanos(),
+            lost_frames: 0,
+            next: Instant::now(),
+        }
+    }
+
+    fn change(&mut self, state: &State) {
+        if *state != self.state {
+            self.state = state.clone();
+            self.since_nanos = now_nanos();
+            self.next = Instant::now();
+        }
+    }
+
+    fn due(&self) -> bool {
+        Instant::now() >= self.next
+    }
+
+    fn wait(&self) -> Duration {
+        self.next.saturating_duration_since(Instant::now())
+    }
+
+    fn sent(&mut self) {
+        self.next = Instant::now() + self.every;
+    }
+
+    fn message(&self) -> SensorStatus {
+        let state = match &self.state {
+            State::Starting => SensorStatus::STARTING,
+            State::Streaming => SensorStatus::STREAMING,
+            State::Degraded(Degraded::Stalled) => SensorStatus::STALLED,
+            State::Degraded(Degraded::Absent(_)) => SensorStatus::ABSENT,
+            State::Degraded(Degraded::Failed(_)) => SensorStatus::FAILED,
+        };
+        SensorStatus {
+            sensor_id: self.sensor_id.clone(),
+            stamp_nanos: now_nanos(),
+            state: state.to_owned(),
+            detail: self.state.to_string(),
+            since_nanos: self.since_nanos,
+            lost_frames: self.lost_frames,
+        }
+    }
 }
 
 /// Frames handed to the event loop and not yet sent, and those dropped because too many were.
@@ -785,6 +875,16 @@ mod tests {
         );
         assert_eq!(summary.states.last(), Some(&State::Streaming));
         assert_eq!(summary.capture.rejoins, 1);
+        let outputs = drain_outputs(&mut rx);
+        let states: Vec<String> = trigait_node_testing::output_arrays(&outputs, ports::STATUS)
+            .iter()
+            .map(|a| SensorStatus::decode(a.as_ref()).unwrap().state)
+            .collect();
+        let absent = states.iter().position(|s| s == SensorStatus::ABSENT);
+        assert!(
+            absent.is_some_and(|i| states[i..].contains(&SensorStatus::STREAMING.to_owned())),
+            "{states:?}"
+        );
         assert!(
             summary.capture.missed_while_away >= 20,
             "{:?}",
@@ -792,7 +892,7 @@ mod tests {
         );
         // Frames flow after the rejoin: the outage is one jump of the stream's sequence
         // (counting the missed frames), with frames sent after it.
-        let seqs: Vec<u64> = drain_outputs(&mut rx)
+        let seqs: Vec<u64> = outputs
             .iter()
             .filter(|o| o.get("id").and_then(|v| v.as_str()) == Some("depth"))
             .map(|o| o["data"][0]["seq"].as_u64().unwrap())
@@ -831,7 +931,11 @@ mod tests {
             at: Duration::from_millis(400),
             length: Duration::from_secs(2),
         });
-        let c = f2(&[("FREENECT2_SERIAL", "S4")]).unwrap();
+        let c = f2(&[
+            ("FREENECT2_SERIAL", "S4"),
+            ("FREENECT2_STATUS_MILLIS", "200"),
+        ])
+        .unwrap();
         let summary = run(
             &config(),
             &c,
@@ -855,6 +959,32 @@ mod tests {
             "{summary:?}"
         );
         let outputs = drain_outputs(&mut rx);
+        // The status reports the stall while no frame arrives: at once when it is detected
+        // (1 s after the last frame), then every 200 ms, with its start time; then streaming
+        // again, about 1 s later (the 2 s stall less the 1 s stall limit), with the frames
+        // lost.
+        let status: Vec<SensorStatus> =
+            trigait_node_testing::output_arrays(&outputs, ports::STATUS)
+                .iter()
+                .map(|a| SensorStatus::decode(a.as_ref()).unwrap())
+                .collect();
+        let stalled: Vec<&SensorStatus> = status
+            .iter()
+            .filter(|s| s.state == SensorStatus::STALLED)
+            .collect();
+        assert!((3..=7).contains(&stalled.len()), "{status:#?}");
+        assert!(stalled.iter().all(|s| s.is_degraded()
+            && s.sensor_id == "k1"
+            && s.since_nanos == stalled[0].since_nanos
+            && s.stamp_nanos >= s.since_nanos));
+        let last = status.last().unwrap();
+        assert_eq!(last.state, SensorStatus::STREAMING, "{status:#?}");
+        let stall_seen = last.since_nanos - stalled[0].since_nanos;
+        assert!(
+            (700_000_000..1_600_000_000).contains(&stall_seen),
+            "{stall_seen} ns"
+        );
+        assert!((59..=62).contains(&last.lost_frames), "{last:?}");
         for reply in trigait_node_testing::output_arrays(&outputs, "ntp_reply") {
             let r = NtpExchange::decode(reply.as_ref()).unwrap();
             let (t2, t3) = (r.t2_nanos.unwrap(), r.t3_nanos.unwrap());

@@ -1,4 +1,5 @@
-//! The depth frame, object masks and the pinhole model that turns pixels into rays.
+//! The depth frame and object masks; the pinhole model that turns pixels into rays is
+//! `trigait_camera`'s, re-exported here.
 //!
 //! A Kinect v2 depth frame is 512×424 unsigned 16-bit values in millimetres, 0 meaning "no data"
 //! (thesis Table 3.1; §5.1.4 reads those zeros as edge noise). The value is the distance along
@@ -6,12 +7,7 @@
 
 use crate::{Error, Result};
 
-/// Columns of a Kinect v2 depth frame.
-pub const WIDTH: usize = 512;
-/// Rows of a Kinect v2 depth frame.
-pub const HEIGHT: usize = 424;
-/// Pixels of a Kinect v2 depth frame.
-pub const PIXELS: usize = WIDTH * HEIGHT;
+pub use trigait_camera::{HEIGHT, Intrinsics, PIXELS, Rays, WIDTH};
 
 /// One Kinect v2 depth frame: row-major millimetres, 0 = no data.
 #[derive(Clone, PartialEq, Eq)]
@@ -141,113 +137,6 @@ impl Mask {
     }
 }
 
-/// Pinhole intrinsics of the depth camera with OpenCV's Brown–Conrady distortion.
-///
-/// Pixel (u, v) with u along the row; normalised image coordinates x = (u − cx)/fx,
-/// y = (v − cy)/fy describe the ray (x, y, 1) in the OpenCV camera frame (x right, y down,
-/// z out of the lens).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Intrinsics {
-    /// Focal length along u, pixels.
-    pub fx: f64,
-    /// Focal length along v, pixels.
-    pub fy: f64,
-    /// Principal point u, pixels.
-    pub cx: f64,
-    /// Principal point v, pixels.
-    pub cy: f64,
-    /// Distortion in OpenCV order k1, k2, p1, p2, k3.
-    pub dist: [f64; 5],
-}
-
-impl Default for Intrinsics {
-    /// Nominal Kinect v2 depth camera: f = 365 px (70.1°×60.3° field of view, Table 3.1),
-    /// principal point at the image centre, no distortion.
-    fn default() -> Self {
-        Self {
-            fx: 365.0,
-            fy: 365.0,
-            cx: (WIDTH as f64 - 1.0) / 2.0,
-            cy: (HEIGHT as f64 - 1.0) / 2.0,
-            dist: [0.0; 5],
-        }
-    }
-}
-
-impl Intrinsics {
-    /// Applies the lens distortion to undistorted normalised coordinates.
-    #[must_use]
-    pub fn distort(&self, x: f64, y: f64) -> (f64, f64) {
-        let [k1, k2, p1, p2, k3] = self.dist;
-        let r2 = x * x + y * y;
-        let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-        let dx = 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
-        let dy = p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
-        (x * radial + dx, y * radial + dy)
-    }
-
-    /// Removes the lens distortion from distorted normalised coordinates by fixed-point
-    /// iteration, as OpenCV's `undistortPoints` does (converges to < 1e-12 for Kinect lenses).
-    #[must_use]
-    pub fn undistort(&self, xd: f64, yd: f64) -> (f64, f64) {
-        if self.dist == [0.0; 5] {
-            return (xd, yd);
-        }
-        let [k1, k2, p1, p2, k3] = self.dist;
-        let (mut x, mut y) = (xd, yd);
-        for _ in 0..50 {
-            let r2 = x * x + y * y;
-            let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-            let dx = 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
-            let dy = p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
-            let nx = (xd - dx) / radial;
-            let ny = (yd - dy) / radial;
-            let change = (nx - x).abs() + (ny - y).abs();
-            x = nx;
-            y = ny;
-            if change < 1e-13 {
-                break;
-            }
-        }
-        (x, y)
-    }
-
-    /// Undistorted normalised coordinates of every pixel centre, row-major.
-    #[must_use]
-    pub fn rays(&self) -> Rays {
-        let mut xy = Vec::with_capacity(PIXELS);
-        for v in 0..HEIGHT {
-            for u in 0..WIDTH {
-                let xd = (u as f64 - self.cx) / self.fx;
-                let yd = (v as f64 - self.cy) / self.fy;
-                xy.push(self.undistort(xd, yd));
-            }
-        }
-        Rays { xy }
-    }
-}
-
-/// Undistorted normalised coordinates (x, y) per pixel: the ray through a pixel is (x, y, 1),
-/// so a depth z (along the axis) back-projects to (x·z, y·z, z).
-#[derive(Debug, Clone)]
-pub struct Rays {
-    xy: Vec<(f64, f64)>,
-}
-
-impl Rays {
-    /// The ray of pixel `index` (row-major).
-    #[must_use]
-    pub fn at(&self, index: usize) -> (f64, f64) {
-        self.xy[index]
-    }
-
-    /// All rays, row-major.
-    #[must_use]
-    pub fn as_slice(&self) -> &[(f64, f64)] {
-        &self.xy
-    }
-}
-
 /// Whether a ray lies inside the elliptical cone of the thesis' accuracy map (§5.1.1, Fig. 5.2):
 /// `horizontal_deg` full angle across, `vertical_deg` full angle up-down (70° × 60°).
 #[must_use]
@@ -260,23 +149,6 @@ pub fn in_elliptical_cone(x: f64, y: f64, horizontal_deg: f64, vertical_deg: f64
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Undistortion inverts distortion for Panoptic-like coefficients over the whole image.
-    #[test]
-    fn undistort_inverts_distort() {
-        let k = Intrinsics {
-            dist: [0.0956, -0.272, 9.65e-5, -1.33e-4, 0.0925],
-            ..Intrinsics::default()
-        };
-        for &(x, y) in &[(0.0, 0.0), (0.3, -0.2), (-0.69, 0.57), (0.7, 0.58)] {
-            let (xd, yd) = k.distort(x, y);
-            let (xu, yu) = k.undistort(xd, yd);
-            assert!(
-                (xu - x).abs() < 1e-9 && (yu - y).abs() < 1e-9,
-                "{x},{y} -> {xu},{yu}"
-            );
-        }
-    }
 
     /// The nominal field of view matches Table 3.1 (70° × 60°): the image-edge midpoints lie on
     /// the cone, the corners outside, the centre inside.

@@ -38,9 +38,8 @@ pub mod sequence;
 pub mod sim;
 pub mod stats;
 pub mod structural;
-pub mod undistort;
 
 pub use error::{Error, Result};
 pub use frame::{DepthFrame, HEIGHT, Intrinsics, Mask, PIXELS, WIDTH};
 pub use sequence::{MetricsParams, SequenceAnalyzer, SequenceMaps, SequenceReport};
-pub use undistort::Undistorter;
+pub use trigait_camera::Undistorter;

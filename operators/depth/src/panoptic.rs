@@ -156,11 +156,10 @@ pub fn back_project(
             continue;
         }
         let d = f64::from(zi) / 1000.0;
-        let (x, y) = k.undistort((u as f64 - k.cx) / k.fx, (v as f64 - k.cy) / k.fy);
         out.push(
             sensor
                 .world_from_depth
-                .transform_point(&Point3::new(x * d, y * d, d)),
+                .transform_point(&k.back_project_opencv(u as f64, v as f64, d)),
         );
     }
     out

@@ -55,16 +55,26 @@ impl Intrinsics {
         (self.cy / self.fy).atan()
     }
 
-    /// Pixel of a camera-space point (column grows to the sensor's right, row grows down), or
-    /// `None` behind the lens.
+    /// The same camera as the depth tools' lens model (no distortion), which does every
+    /// projection and back-projection.
+    #[must_use]
+    pub fn lens(&self) -> trigait_camera::Intrinsics {
+        trigait_camera::Intrinsics::pinhole(self.fx, self.fy, self.cx, self.cy)
+    }
+
+    /// Pixel of a camera-space point (column grows to the sensor's right, row grows down;
+    /// column u spans u..u+1), or `None` behind the lens.
     #[must_use]
     pub fn project(&self, point_in_kinect: &Point3<f64>) -> Option<Point2<f64>> {
-        (point_in_kinect.z > 0.0).then(|| {
-            Point2::new(
-                self.cx - self.fx * point_in_kinect.x / point_in_kinect.z,
-                self.cy - self.fy * point_in_kinect.y / point_in_kinect.z,
-            )
-        })
+        self.lens().project_kinect(point_in_kinect)
+    }
+
+    /// The ray (x, y, 1) in camera space through the centre of pixel (column, row), so a depth
+    /// z along the axis back-projects to (x·z, y·z, z).
+    #[must_use]
+    pub fn pixel_ray(&self, column: usize, row: usize) -> (f64, f64) {
+        self.lens()
+            .ray_kinect(column as f64 + 0.5, row as f64 + 0.5)
     }
 
     /// Whether the point projects inside the image.
@@ -111,6 +121,17 @@ mod tests {
         let c = k.project(&Point3::new(0.0, 0.0, 2.0)).unwrap();
         assert_relative_eq!(c.x, 256.0);
         assert_relative_eq!(c.y, 212.0);
+    }
+
+    /// A pixel's ray projects back into that pixel's centre, left columns look to +x.
+    #[test]
+    fn pixel_ray_round_trips() {
+        let k = Intrinsics::default();
+        let (x, y) = k.pixel_ray(10, 400);
+        assert!(x > 0.0 && y < 0.0);
+        let px = k.project(&Point3::new(x * 3.0, y * 3.0, 3.0)).unwrap();
+        assert_relative_eq!(px.x, 10.5, epsilon = 1e-9);
+        assert_relative_eq!(px.y, 400.5, epsilon = 1e-9);
     }
 
     /// Points inside the 70.6° × 60° cone are in view, points outside or behind are not, and a

@@ -46,101 +46,162 @@ impl DepthFrameMessage {
     /// # Errors
     /// [`Error::BadLength`] on `depth_frame.depth_mm`.
     pub fn validate(&self) -> Result<()> {
-        let expected =
-            usize::try_from(u64::from(self.width) * u64::from(self.height)).unwrap_or(usize::MAX);
-        if expected == 0 || self.depth_mm.len() != expected {
-            return Err(Error::BadLength {
-                field: format!("{}.depth_mm", Self::NAME),
-                expected,
-                found: self.depth_mm.len(),
-            });
-        }
-        Ok(())
+        check_size(
+            Self::NAME,
+            "depth_mm",
+            self.width,
+            self.height,
+            self.depth_mm.len(),
+        )
     }
 }
 
-fn fields() -> Fields {
+/// Refuses a pixel count that is not `width × height`, or zero.
+fn check_size(message: &str, pixels: &str, width: u32, height: u32, found: usize) -> Result<()> {
+    let expected = usize::try_from(u64::from(width) * u64::from(height)).unwrap_or(usize::MAX);
+    if expected == 0 || found != expected {
+        return Err(Error::BadLength {
+            field: format!("{message}.{pixels}"),
+            expected,
+            found,
+        });
+    }
+    Ok(())
+}
+
+/// One 16-bit image of one sensor's stream, the layout `depth_frame` and `ir_frame` share
+/// (they differ in the name and meaning of the pixel column).
+pub(crate) struct Image<'a> {
+    pub(crate) sensor_id: &'a str,
+    pub(crate) seq: u64,
+    pub(crate) local_stamp_nanos: i64,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) pixels: &'a [u16],
+}
+
+/// A decoded [`Image`].
+pub(crate) type OwnedImage = (String, u64, i64, u32, u32, Vec<u16>);
+
+pub(crate) fn image_fields(pixels: &str) -> Fields {
     Fields::from(vec![
         field("sensor_id", DataType::Utf8),
         field("seq", DataType::UInt64),
         field("local_stamp_nanos", DataType::Int64),
         field("width", DataType::UInt32),
         field("height", DataType::UInt32),
-        field("depth_mm", list_of(DataType::UInt16)),
+        field(pixels, list_of(DataType::UInt16)),
     ])
+}
+
+pub(crate) fn encode_images(
+    message: &'static str,
+    pixels: &str,
+    images: &[Image<'_>],
+) -> Result<ArrayRef> {
+    let b = Builder { message };
+    for m in images {
+        check_size(message, pixels, m.width, m.height, m.pixels.len()).map_err(|e| {
+            Error::Encode {
+                message,
+                detail: e.to_string(),
+            }
+        })?;
+    }
+    let lengths: Vec<usize> = images.iter().map(|m| m.pixels.len()).collect();
+    let values: ArrayRef = Arc::new(match images {
+        // The common case (a node sends one frame): one copy into the Arrow buffer.
+        [one] => UInt16Array::from(one.pixels.to_vec()),
+        _ => UInt16Array::from_iter_values(images.iter().flat_map(|m| m.pixels.iter().copied())),
+    });
+    b.structs(
+        &image_fields(pixels),
+        vec![
+            b.strings(images.iter().map(|m| m.sensor_id)),
+            b.values::<UInt64Type>(images.iter().map(|m| m.seq)),
+            b.values::<Int64Type>(images.iter().map(|m| m.local_stamp_nanos)),
+            b.values::<UInt32Type>(images.iter().map(|m| m.width)),
+            b.values::<UInt32Type>(images.iter().map(|m| m.height)),
+            b.list(DataType::UInt16, &lengths, values)?,
+        ],
+    )
+}
+
+pub(crate) fn decode_images(
+    array: &dyn Array,
+    message: &'static str,
+    pixels: &str,
+) -> Result<Vec<OwnedImage>> {
+    let top = Rows::new(array, message)?;
+    let sensors = top.column::<StringArray>("sensor_id")?;
+    let seqs = top.column::<UInt64Array>("seq")?;
+    let stamps = top.column::<Int64Array>("local_stamp_nanos")?;
+    let widths = top.column::<UInt32Array>("width")?;
+    let heights = top.column::<UInt32Array>("height")?;
+    // The pixels are sliced out of the one item buffer rather than read cell by cell.
+    let (list, pixels_path) = top.nested(pixels)?;
+    let values_path = format!("{pixels_path}.item");
+    let values = Col::new(list.values().as_ref(), &values_path).primitive::<UInt16Type>()?;
+    top.rows()
+        .map(|row| {
+            let range = list_range(list, &pixels_path, row)?;
+            let slice = values.slice(range.start, range.len());
+            if slice.null_count() > 0 {
+                return Err(Error::NullValue {
+                    field: values_path.clone(),
+                    row,
+                });
+            }
+            let (width, height) = (widths.get(row)?, heights.get(row)?);
+            check_size(message, pixels, width, height, slice.len())?;
+            Ok((
+                sensors.get(row)?,
+                seqs.get(row)?,
+                stamps.get(row)?,
+                width,
+                height,
+                slice.values().to_vec(),
+            ))
+        })
+        .collect()
 }
 
 impl Message for DepthFrameMessage {
     const NAME: &'static str = "depth_frame";
 
     fn data_type() -> DataType {
-        struct_of(fields())
+        struct_of(image_fields("depth_mm"))
     }
 
     fn encode_many(messages: &[Self]) -> Result<ArrayRef> {
-        let b = Builder {
-            message: Self::NAME,
-        };
-        for m in messages {
-            m.validate().map_err(|e| Error::Encode {
-                message: Self::NAME,
-                detail: e.to_string(),
-            })?;
-        }
-        let lengths: Vec<usize> = messages.iter().map(|m| m.depth_mm.len()).collect();
-        let pixels: ArrayRef = Arc::new(match messages {
-            // The common case (a node sends one frame): one copy into the Arrow buffer.
-            [one] => UInt16Array::from(one.depth_mm.clone()),
-            _ => UInt16Array::from_iter_values(
-                messages.iter().flat_map(|m| m.depth_mm.iter().copied()),
-            ),
-        });
-        b.structs(
-            &fields(),
-            vec![
-                b.strings(messages.iter().map(|m| m.sensor_id.as_str())),
-                b.values::<UInt64Type>(messages.iter().map(|m| m.seq)),
-                b.values::<Int64Type>(messages.iter().map(|m| m.local_stamp_nanos)),
-                b.values::<UInt32Type>(messages.iter().map(|m| m.width)),
-                b.values::<UInt32Type>(messages.iter().map(|m| m.height)),
-                b.list(DataType::UInt16, &lengths, pixels)?,
-            ],
-        )
+        let images: Vec<Image<'_>> = messages
+            .iter()
+            .map(|m| Image {
+                sensor_id: &m.sensor_id,
+                seq: m.seq,
+                local_stamp_nanos: m.local_stamp_nanos,
+                width: m.width,
+                height: m.height,
+                pixels: &m.depth_mm,
+            })
+            .collect();
+        encode_images(Self::NAME, "depth_mm", &images)
     }
 
     fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        let top = Rows::new(array, Self::NAME)?;
-        let sensors = top.column::<StringArray>("sensor_id")?;
-        let seqs = top.column::<UInt64Array>("seq")?;
-        let stamps = top.column::<Int64Array>("local_stamp_nanos")?;
-        let widths = top.column::<UInt32Array>("width")?;
-        let heights = top.column::<UInt32Array>("height")?;
-        // The pixels are sliced out of the one item buffer rather than read cell by cell.
-        let (list, depth_path) = top.nested("depth_mm")?;
-        let values_path = format!("{depth_path}.item");
-        let values = Col::new(list.values().as_ref(), &values_path).primitive::<UInt16Type>()?;
-        top.rows()
-            .map(|row| {
-                let range = list_range(list, &depth_path, row)?;
-                let pixels = values.slice(range.start, range.len());
-                if pixels.null_count() > 0 {
-                    return Err(Error::NullValue {
-                        field: values_path.clone(),
-                        row,
-                    });
-                }
-                let m = DepthFrameMessage {
-                    sensor_id: sensors.get(row)?,
-                    seq: seqs.get(row)?,
-                    local_stamp_nanos: stamps.get(row)?,
-                    width: widths.get(row)?,
-                    height: heights.get(row)?,
-                    depth_mm: pixels.values().to_vec(),
-                };
-                m.validate()?;
-                Ok(m)
-            })
-            .collect()
+        Ok(decode_images(array, Self::NAME, "depth_mm")?
+            .into_iter()
+            .map(
+                |(sensor_id, seq, local_stamp_nanos, width, height, depth_mm)| DepthFrameMessage {
+                    sensor_id,
+                    seq,
+                    local_stamp_nanos,
+                    width,
+                    height,
+                    depth_mm,
+                },
+            )
+            .collect())
     }
 }
 

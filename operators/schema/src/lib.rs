@@ -39,11 +39,13 @@ mod aligned;
 mod codec;
 mod depth;
 mod fused;
+mod ir;
 #[cfg(test)]
 mod messages_md;
 mod ntp;
 pub mod ports;
 mod skeleton;
+mod status;
 mod timing;
 mod truth;
 
@@ -51,8 +53,10 @@ pub use arrow_array::{Array, ArrayRef};
 pub use arrow_schema::DataType;
 pub use depth::DepthFrameMessage;
 pub use fused::{FusedJoint, FusedPose};
+pub use ir::IrFrameMessage;
 pub use ntp::NtpExchange;
 pub use skeleton::SkeletonFrameMessage;
+pub use status::SensorStatus;
 pub use timing::FrameTiming;
 pub use truth::GroundTruth;
 

@@ -12,8 +12,8 @@ use arrow_schema::{DataType, Fields};
 use trigait_skeleton::{Joint, TrackingState};
 
 use crate::{
-    DepthFrameMessage, FrameTiming, FusedPose, GroundTruth, Message, NtpExchange,
-    SkeletonFrameMessage, ports,
+    DepthFrameMessage, FrameTiming, FusedPose, GroundTruth, IrFrameMessage, Message, NtpExchange,
+    SensorStatus, SkeletonFrameMessage, ports,
 };
 
 const DOC: &str = include_str!("../MESSAGES.md");
@@ -34,6 +34,8 @@ fn messages() -> BTreeMap<&'static str, DataType> {
         ),
         (FusedPose::NAME, FusedPose::data_type()),
         (DepthFrameMessage::NAME, DepthFrameMessage::data_type()),
+        (SensorStatus::NAME, SensorStatus::data_type()),
+        (IrFrameMessage::NAME, IrFrameMessage::data_type()),
     ])
 }
 
@@ -286,6 +288,8 @@ fn check(doc: &str) -> Vec<String> {
         ports::FRAME_TIMING,
         ports::FUSED_POSE,
         ports::DEPTH,
+        ports::IR,
+        ports::STATUS,
     ]
     .into_iter()
     .map(str::to_owned)
@@ -295,6 +299,7 @@ fn check(doc: &str) -> Vec<String> {
             ports::FRAME_INPUT_PREFIX,
             ports::NTP_INPUT_PREFIX,
             ports::DEPTH_INPUT_PREFIX,
+            ports::STATUS_INPUT_PREFIX,
         ]
         .map(|prefix| format!("{prefix}<sensor>")),
     )

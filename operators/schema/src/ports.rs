@@ -40,8 +40,14 @@ pub const FRAME_TIMING: &str = "frame_timing";
 pub const FUSED_POSE: &str = "fused_pose";
 /// `kinect-source` output (optional, `DEPTH_RATE_HZ`): a `depth_frame`.
 pub const DEPTH: &str = "depth";
+/// Output id of a source's IR amplitude images (`ir_frame`, optional; a real sensor's source).
+pub const IR: &str = "ir";
+/// Output id of a source's device state (`sensor_status`, optional; a real sensor's source).
+pub const STATUS: &str = "status";
 /// `depth-metrics` input id prefix for a source's depth frames: `depth_k1`.
 pub const DEPTH_INPUT_PREFIX: &str = "depth_";
+/// Input id prefix of `depth-metrics`' per-sensor device state (`status_k1`).
+pub const STATUS_INPUT_PREFIX: &str = "status_";
 /// `sync`/`recorder` input id prefix for a source's frames: `frame_k1`.
 pub const FRAME_INPUT_PREFIX: &str = "frame_";
 /// `sync` input id prefix for a source's NTP replies: `ntp_k1`.

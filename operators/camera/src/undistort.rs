@@ -12,7 +12,7 @@
 
 use nalgebra::Point3;
 
-use crate::frame::{HEIGHT, Intrinsics, PIXELS, WIDTH};
+use crate::{HEIGHT, Intrinsics, PIXELS, WIDTH};
 
 /// The forward map of undistorted pixel → raw pixel index, built once per camera.
 #[derive(Debug, Clone)]
