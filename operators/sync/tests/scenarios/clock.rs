@@ -1,4 +1,4 @@
-//! Clock sync accuracy on simulated LAN links: issue 4's figure (offset error < 1 ms for ≥ 99 % of
+//! Clock sync accuracy on simulated LAN links: the target figure (offset error < 1 ms for ≥ 99 % of
 //! frames with offsets up to ±50 ms and drift up to 100 ppm), step recovery.
 
 use trigait_sim::clock::{LinkDelay, SimClock, SimSensorLink};
