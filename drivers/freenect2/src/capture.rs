@@ -128,6 +128,29 @@ pub struct Captured {
 }
 
 impl Captured {
+    /// Resamples the depth (and IR) image through `lens`' forward map (libfreenect2's
+    /// undistortion, [`trigait_depth::Undistorter`]) so it becomes the ideal distortion-free
+    /// pinhole with the lens' fx, fy, cx, cy (returned, `[fx, fy, cx, cy]`); pixels that map
+    /// outside the raw image get no data (0). One table lookup per pixel.
+    ///
+    /// # Errors
+    /// [`crate::Error::BadFrame`] when a frame is not 512×424.
+    pub fn undistort(&mut self, lens: &trigait_depth::Undistorter) -> crate::Result<[f64; 4]> {
+        let resample = |frame: &mut Frame| -> crate::Result<()> {
+            let mut out = vec![0.0; trigait_depth::PIXELS];
+            lens.undistort_into(frame.as_f32(), &mut out)
+                .map_err(|e| crate::Error::BadFrame(e.to_string()))?;
+            frame.pixels = crate::frame::Pixels::Owned(out);
+            Ok(())
+        };
+        resample(&mut self.depth)?;
+        if let Some(ir) = self.ir.as_mut() {
+            resample(ir)?;
+        }
+        let k = lens.intrinsics();
+        Ok([k.fx, k.fy, k.cx, k.cy])
+    }
+
     /// The messages of this capture: the `depth_frame` in whole mm and, when captured, the
     /// `ir_frame` of the IR amplitude; both stamped on the host clock, numbered `seq`.
     #[must_use]
