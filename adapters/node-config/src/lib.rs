@@ -176,6 +176,15 @@ pub fn stamped_pinhole(params: &dora_node_api::MetadataParameters) -> Option<[f6
     }
 }
 
+/// The camera to back-project a depth frame with: the pinhole its source stamped (an
+/// undistorted real frame, [`stamped_pinhole`]), otherwise the nominal Kinect v2 camera.
+#[must_use]
+pub fn depth_camera(params: &dora_node_api::MetadataParameters) -> trigait_camera::Intrinsics {
+    stamped_pinhole(params).map_or_else(trigait_camera::Intrinsics::default, |[fx, fy, cx, cy]| {
+        trigait_camera::Intrinsics::pinhole(fx, fy, cx, cy)
+    })
+}
+
 /// The metadata parameter [`stamped_pinhole`] reads.
 #[must_use]
 pub fn pinhole_parameter(k: [f64; 4]) -> dora_node_api::Parameter {
@@ -287,12 +296,17 @@ mod tests {
     fn stamped_pinhole_round_trip() {
         let mut params = dora_node_api::MetadataParameters::default();
         assert_eq!(stamped_pinhole(&params), None);
+        assert_eq!(depth_camera(&params), trigait_camera::Intrinsics::default());
         let k = [365.5, 365.4, 254.9, 205.4];
         params.insert(
             trigait_schema::ports::DEPTH_PINHOLE.to_owned(),
             pinhole_parameter(k),
         );
         assert_eq!(stamped_pinhole(&params), Some(k));
+        assert_eq!(
+            depth_camera(&params),
+            trigait_camera::Intrinsics::pinhole(k[0], k[1], k[2], k[3])
+        );
         for bad in [
             vec![1.0, 2.0, 3.0],
             vec![0.0, 365.0, 1.0, 1.0],
