@@ -739,6 +739,29 @@ mod tests {
         assert_eq!(lens.undistort(None, &mut unknown), None);
         assert_eq!(unknown.depth.as_f32(), raw.as_slice());
         assert_eq!(metadata(&unknown, None).get(ports::DEPTH_PINHOLE), None);
+        // The IR image of the same capture (the fake's is depth / 10) is resampled the same way.
+        let mut with_ir = CaptureConfig::new(Selector::Index(0));
+        with_ir.streams.ir = true;
+        let mut capture = Capture::new(
+            with_ir,
+            Box::new(FakeDriver::new(vec![FakeKinect::new("S1", vec![raw])])),
+        );
+        let mut captured = loop {
+            if let Some(trigait_freenect2::capture::Event::Frame(f)) =
+                capture.poll(Duration::from_millis(100))
+            {
+                break f;
+            }
+        };
+        assert!(captured.ir.is_some());
+        assert_eq!(
+            lens.undistort(capture.ir_params(), &mut captured),
+            Some(pinhole)
+        );
+        let ir = captured.ir.as_ref().unwrap().as_f32();
+        for (d, i) in captured.depth.as_f32().iter().zip(ir) {
+            assert!((d / 10.0 - i).abs() <= d.abs() * 1e-6, "depth {d}, ir {i}");
+        }
     }
 
     fn config() -> Config {
