@@ -162,6 +162,35 @@ pub const RIG: &str = "RIG";
 /// The rig of the thesis set-up, used when `RIG` is not set.
 pub const DEFAULT_RIG: &str = "thesis";
 
+/// The pinhole `[fx, fy, cx, cy]` (px) a source stamped on a depth frame
+/// ([`trigait_schema::ports::DEPTH_PINHOLE`]), or `None` when the frame has none (the nominal
+/// camera) or the stamp is not four finite numbers with positive focal lengths.
+#[must_use]
+pub fn stamped_pinhole(params: &dora_node_api::MetadataParameters) -> Option<[f64; 4]> {
+    match params.get(trigait_schema::ports::DEPTH_PINHOLE)? {
+        dora_node_api::Parameter::ListFloat(v) => {
+            let k: [f64; 4] = v.as_slice().try_into().ok()?;
+            (k.iter().all(|x| x.is_finite()) && k[0] > 0.0 && k[1] > 0.0).then_some(k)
+        }
+        _ => None,
+    }
+}
+
+/// The camera to back-project a depth frame with: the pinhole its source stamped (an
+/// undistorted real frame, [`stamped_pinhole`]), otherwise the nominal Kinect v2 camera.
+#[must_use]
+pub fn depth_camera(params: &dora_node_api::MetadataParameters) -> trigait_camera::Intrinsics {
+    stamped_pinhole(params).map_or_else(trigait_camera::Intrinsics::default, |[fx, fy, cx, cy]| {
+        trigait_camera::Intrinsics::pinhole(fx, fy, cx, cy)
+    })
+}
+
+/// The metadata parameter [`stamped_pinhole`] reads.
+#[must_use]
+pub fn pinhole_parameter(k: [f64; 4]) -> dora_node_api::Parameter {
+    dora_node_api::Parameter::ListFloat(k.to_vec())
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -260,5 +289,34 @@ mod tests {
         assert_eq!(flag_word(" no "), Some(false));
         assert_eq!(flag_word("1"), Some(true));
         assert_eq!(flag_word("rrd"), None);
+    }
+
+    /// A stamped pinhole reads back; a missing, short or non-positive one is the nominal camera.
+    #[test]
+    fn stamped_pinhole_round_trip() {
+        let mut params = dora_node_api::MetadataParameters::default();
+        assert_eq!(stamped_pinhole(&params), None);
+        assert_eq!(depth_camera(&params), trigait_camera::Intrinsics::default());
+        let k = [365.5, 365.4, 254.9, 205.4];
+        params.insert(
+            trigait_schema::ports::DEPTH_PINHOLE.to_owned(),
+            pinhole_parameter(k),
+        );
+        assert_eq!(stamped_pinhole(&params), Some(k));
+        assert_eq!(
+            depth_camera(&params),
+            trigait_camera::Intrinsics::pinhole(k[0], k[1], k[2], k[3])
+        );
+        for bad in [
+            vec![1.0, 2.0, 3.0],
+            vec![0.0, 365.0, 1.0, 1.0],
+            vec![f64::NAN; 4],
+        ] {
+            params.insert(
+                trigait_schema::ports::DEPTH_PINHOLE.to_owned(),
+                dora_node_api::Parameter::ListFloat(bad),
+            );
+            assert_eq!(stamped_pinhole(&params), None);
+        }
     }
 }

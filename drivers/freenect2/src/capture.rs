@@ -128,6 +128,32 @@ pub struct Captured {
 }
 
 impl Captured {
+    /// Resamples the depth (and IR) image through `lens`' forward map (libfreenect2's
+    /// undistortion, [`trigait_depth::Undistorter`]) so it becomes the ideal distortion-free
+    /// pinhole with the lens' fx, fy, cx, cy (returned, `[fx, fy, cx, cy]`); pixels that map
+    /// outside the raw image get no data (0). One table lookup per pixel. On an error both
+    /// frames stay as they were.
+    ///
+    /// # Errors
+    /// [`crate::Error::BadFrame`] when a frame is not 512×424.
+    pub fn undistort(&mut self, lens: &trigait_depth::Undistorter) -> crate::Result<[f64; 4]> {
+        let resample = |frame: &Frame| -> crate::Result<Vec<f32>> {
+            let mut out = vec![0.0; trigait_depth::PIXELS];
+            lens.undistort_into(frame.as_f32(), &mut out)
+                .map_err(|e| crate::Error::BadFrame(e.to_string()))?;
+            Ok(out)
+        };
+        // Both resampled before either is replaced: on an error the capture stays raw.
+        let depth = resample(&self.depth)?;
+        let ir = self.ir.as_ref().map(resample).transpose()?;
+        self.depth.pixels = crate::frame::Pixels::Owned(depth);
+        if let (Some(frame), Some(pixels)) = (self.ir.as_mut(), ir) {
+            frame.pixels = crate::frame::Pixels::Owned(pixels);
+        }
+        let k = lens.intrinsics();
+        Ok([k.fx, k.fy, k.cx, k.cy])
+    }
+
     /// The messages of this capture: the `depth_frame` in whole mm and, when captured, the
     /// `ir_frame` of the IR amplitude; both stamped on the host clock, numbered `seq`.
     #[must_use]

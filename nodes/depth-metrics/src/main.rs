@@ -6,7 +6,9 @@
 //! through [`trigait_depth_rerun`]. Each `status_<sensor>` input (a `sensor_status`, optional)
 //! gives that sensor's device state: a change is logged to rerun and the report file's `devices`
 //! holds each sensor's state and degraded time ([`devices`]). A malformed message or a frame of
-//! the wrong size is counted and skipped. Configuration: [`config`].
+//! the wrong size is counted and skipped. A frame's camera is the pinhole its source stamped
+//! (`trigait.depth_pinhole`, an undistorted real frame; the entry's `pinhole`), otherwise the
+//! nominal Kinect v2 camera ([`trigait_node_config::depth_camera`]). Configuration: [`config`].
 
 mod config;
 mod devices;
@@ -95,13 +97,14 @@ pub fn run(config: Config, _node: DoraNode, mut events: EventStream) -> eyre::Re
                     }
                 }
             }
-            Event::Input { id, data, .. } => {
+            Event::Input { id, data, metadata } => {
                 let Some(sensor) = ports::sensor_of(id.as_str(), ports::DEPTH_INPUT_PREFIX) else {
                     counters.unknown += 1;
                     warn!(input = id.as_str(), "ignoring an unknown input");
                     continue;
                 };
-                match sensors.push(sensor, data.as_array().as_ref(), now_nanos()) {
+                let camera = trigait_node_config::depth_camera(&metadata.parameters);
+                match sensors.push(sensor, data.as_array().as_ref(), camera, now_nanos()) {
                     (Pushed::Refused, why) => {
                         counters.refused += 1;
                         warn!(%sensor, "skipping a frame: {}", why.unwrap_or_default());

@@ -7,7 +7,8 @@ use std::path::Path;
 
 use eyre::Context;
 use serde::Serialize;
-use trigait_depth::{DepthFrame, MetricsParams, SequenceAnalyzer, SequenceReport};
+use tracing::warn;
+use trigait_depth::{DepthFrame, Intrinsics, MetricsParams, SequenceAnalyzer, SequenceReport};
 use trigait_depth_rerun::RecordingStream;
 use trigait_schema::{DepthFrameMessage, Message};
 
@@ -54,10 +55,15 @@ pub struct SensorEntry {
     pub report: Option<SequenceReport>,
     /// Why the last report could not be computed.
     pub error: Option<String>,
+    /// The pinhole `[fx, fy, cx, cy]` (px) the source stamped on the frames (undistorted
+    /// real frames) and the metrics back-project with; `None`: the nominal camera.
+    pub pinhole: Option<[f64; 4]>,
 }
 
 struct Sensor {
     analyzer: SequenceAnalyzer,
+    /// The camera the analyzer back-projects with (the frames' stamped pinhole or nominal).
+    camera: Intrinsics,
     entry: SensorEntry,
     last_seq: Option<u64>,
     reported_at: usize,
@@ -105,6 +111,7 @@ impl Sensors {
         let params = self.params;
         self.sensors.entry(id.to_owned()).or_insert_with(|| Sensor {
             analyzer: SequenceAnalyzer::new(params, None),
+            camera: params.intrinsics,
             entry: SensorEntry::default(),
             last_seq: None,
             reported_at: 0,
@@ -112,15 +119,21 @@ impl Sensors {
         })
     }
 
-    /// Decodes and analyses one message of `sensor` that arrived at `arrival_nanos`. Bad input
-    /// is counted and skipped; the reason is returned for the log.
+    /// Decodes and analyses one message of `sensor` that arrived at `arrival_nanos`, taken by
+    /// `camera` (`trigait_node_config::depth_camera` of its metadata: the source's stamped
+    /// pinhole of an undistorted frame, or the nominal camera). Bad input is counted and
+    /// skipped; the reason is returned for the log. A frame of another camera than the
+    /// sensor's frames so far starts its analysis afresh (statistics over two cameras mean
+    /// nothing).
     pub fn push(
         &mut self,
         sensor: &str,
         array: &dyn trigait_schema::Array,
+        camera: Intrinsics,
         arrival_nanos: i64,
     ) -> (Pushed, Option<String>) {
         let report_every = self.report_every;
+        let params = self.params;
         let s = self.sensor(sensor);
         s.entry.frames_received += 1;
         let message = match DepthFrameMessage::decode(array) {
@@ -148,6 +161,22 @@ impl Sensors {
         }
         s.last_seq = Some(message.seq);
         s.entry.first_seq.get_or_insert(message.seq);
+        if s.camera != camera {
+            if s.analyzer.frames() > 0 {
+                warn!(%sensor, "the depth camera changed: starting the analysis afresh");
+            }
+            s.analyzer = SequenceAnalyzer::new(
+                MetricsParams {
+                    intrinsics: camera,
+                    ..params
+                },
+                None,
+            );
+            s.camera = camera;
+            s.reported_at = 0;
+        }
+        s.entry.pinhole = (camera != Intrinsics::default())
+            .then_some([camera.fx, camera.fy, camera.cx, camera.cy]);
         s.analyzer.push(&frame);
         let e = &mut s.entry;
         e.frames_analysed += 1;

@@ -3,6 +3,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use dora_node_api::integration_testing::{TestingOptions, drain_outputs};
+use trigait_depth::Intrinsics;
 use trigait_depth::sim::{Scene, SimParams, Simulator};
 use trigait_depth_rerun::Sink;
 use trigait_node_testing::{init_node, input_event, lookup, scratch_dir};
@@ -22,6 +23,40 @@ fn message(sim: &mut Simulator, seq: u64) -> ArrayRef {
     }
     .encode()
     .unwrap()
+}
+
+/// A frame's stamped pinhole (an undistorted real frame's `trigait.depth_pinhole`) is the
+/// camera the metrics use and goes into the sensor's entry; unstamped frames are the nominal
+/// camera; a change of camera starts the analysis afresh.
+#[test]
+fn stamped_pinhole_is_the_metrics_camera() {
+    let mut sim = Simulator::new(&Scene::wall(2.0), SimParams::default()).unwrap();
+    let mut sensors = Sensors::new(trigait_depth::MetricsParams::default(), 100);
+    let plain = dora_node_api::MetadataParameters::default();
+    for seq in 0..3 {
+        let camera = trigait_node_config::depth_camera(&plain);
+        assert_eq!(camera, Intrinsics::default());
+        let pushed = sensors.push("k1", message(&mut sim, seq).as_ref(), camera, 0);
+        assert_eq!(pushed.0, Pushed::Analysed);
+    }
+    assert_eq!(sensors.entry("k1").unwrap().pinhole, None);
+    let k = [365.456, 365.456, 254.878, 205.395];
+    let mut stamped = dora_node_api::MetadataParameters::default();
+    stamped.insert(
+        trigait_schema::ports::DEPTH_PINHOLE.to_owned(),
+        trigait_node_config::pinhole_parameter(k),
+    );
+    for seq in 3..5 {
+        let camera = trigait_node_config::depth_camera(&stamped);
+        assert_eq!(camera, Intrinsics::pinhole(k[0], k[1], k[2], k[3]));
+        let pushed = sensors.push("k1", message(&mut sim, seq).as_ref(), camera, 0);
+        assert_eq!(pushed.0, Pushed::Analysed);
+    }
+    assert!(sensors.report("k1", None).unwrap());
+    let e = sensors.entry("k1").unwrap();
+    assert_eq!(e.pinhole, Some(k));
+    assert_eq!(e.frames_analysed, 5);
+    assert_eq!(e.report.as_ref().unwrap().frames, 2, "analysis restarted");
 }
 
 /// Defaults, the rerun sink forms, and errors that name the variable.
@@ -64,6 +99,7 @@ fn frames_are_analysed_and_bad_ones_counted() {
         match sensors.push(
             "k1",
             message(&mut sim, seq).as_ref(),
+            Intrinsics::default(),
             seq as i64 * 100_000_000,
         ) {
             (Pushed::ReportDue, _) => {
@@ -76,7 +112,10 @@ fn frames_are_analysed_and_bad_ones_counted() {
     }
     assert_eq!(due, 3);
     let ntp = NtpExchange::request("k1", 1, 2).encode().unwrap();
-    assert_eq!(sensors.push("k1", ntp.as_ref(), 0).0, Pushed::Refused);
+    assert_eq!(
+        sensors.push("k1", ntp.as_ref(), Intrinsics::default(), 0).0,
+        Pushed::Refused
+    );
     let small = DepthFrameMessage {
         sensor_id: "k1".into(),
         seq: 99,
@@ -87,7 +126,7 @@ fn frames_are_analysed_and_bad_ones_counted() {
     }
     .encode()
     .unwrap();
-    let (p, why) = sensors.push("k1", small.as_ref(), 0);
+    let (p, why) = sensors.push("k1", small.as_ref(), Intrinsics::default(), 0);
     assert_eq!(p, Pushed::Refused);
     assert!(why.unwrap().contains("4x2"));
     // Nothing new since the last report: no report.

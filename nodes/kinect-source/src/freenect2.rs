@@ -15,13 +15,17 @@
 //! | `FREENECT2_STATUS_MILLIS` | ms | `500` | period of the `status` report |
 //!
 //! Output `depth`: `depth_frame` with whole millimetres (libfreenect2's float mm rounded; no data
-//! = 0), `local_stamp_nanos` the capture instant on the host clock (device time mapped by the
+//! = 0), undistorted once the device's IR intrinsics are known: resampled through
+//! [`trigait_depth::Undistorter`] (libfreenect2's own forward map, built once per device) to the
+//! ideal pinhole with the device's fx, fy, cx, cy, which go on the frame as
+//! `trigait.depth_pinhole` so downstream back-projects with them (without it, the nominal
+//! camera); `local_stamp_nanos` the capture instant on the host clock (device time mapped by the
 //! capture state machine), `seq` counting lost frames too (a gap downstream is a loss here).
 //! Metadata: `trigait.device_nanos` (unwrapped device time), `trigait.device_sequence`,
 //! `trigait.host_arrival_nanos`, `trigait.lost_before`. NTP requests are answered on the host
 //! clock, the same clock as the stamps, so `sync` measures the host's offset to the server.
 //! Output `ir` (when `FREENECT2_IR` is on): an `ir_frame`, the IR amplitude (0–65535,
-//! unitless) of the same capture, with the depth frame's `seq` and stamp.
+//! unitless) of the same capture, with the depth frame's `seq` and stamp, resampled the same way.
 //! Output `status` (when declared): a `sensor_status` on every state change and every
 //! `FREENECT2_STATUS_MILLIS` in between — streaming, or degraded (stalled, absent, failed) with
 //! the reason and frames lost so far — so a consumer sees a stalled or unplugged sensor while
@@ -36,9 +40,10 @@ use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{DoraNode, Event, EventStream, MetadataParameters, Parameter};
 use eyre::{Context, bail, eyre};
 use tracing::{info, warn};
+use trigait_depth::Undistorter;
 use trigait_freenect2::capture::Degraded;
 use trigait_freenect2::capture::{Capture, CaptureConfig, Captured, Counters, Selector, State};
-use trigait_freenect2::{Driver, Pipeline, Streams};
+use trigait_freenect2::{Driver, IrParams, Pipeline, Streams};
 use trigait_node_config::{env_flag, env_number_where, env_value};
 use trigait_schema::{Message, NtpExchange, SensorStatus, ports};
 
@@ -181,8 +186,9 @@ pub struct Summary {
 }
 
 enum Msg {
-    /// A captured frame and its stream sequence number.
-    Frame(Box<Captured>, u64),
+    /// A captured frame, its stream sequence number and, when it was undistorted, the
+    /// pinhole it now is (`[fx, fy, cx, cy]`).
+    Frame(Box<Captured>, u64, Option<[f64; 4]>),
     /// The capture state changed.
     State(State),
     /// The capture thread closed the device; its totals.
@@ -309,11 +315,11 @@ pub fn run(
                     queue.taken();
                     summary.unsent_at_stop += 1;
                 }
-                Msg::Frame(captured, seq) => {
+                Msg::Frame(captured, seq, pinhole) => {
                     status.lost_frames += captured.lost_before;
                     let sent = (|| {
                         let (depth, ir) = encode(&config.sensor_id, seq, &captured, f2.send_ir)?;
-                        let params = metadata(&captured);
+                        let params = metadata(&captured, pinhole);
                         if let Some(ir) = ir {
                             node.send_output(ir_out.clone(), params.clone(), ir)
                                 .context("kinect-source: sending ir")?;
@@ -542,8 +548,14 @@ fn forward_events(mut events: EventStream, stop: &AtomicBool, tx: &mpsc::Sender<
     }
 }
 
-fn metadata(c: &Captured) -> MetadataParameters {
+fn metadata(c: &Captured, pinhole: Option<[f64; 4]>) -> MetadataParameters {
     let mut params = MetadataParameters::default();
+    if let Some(k) = pinhole {
+        params.insert(
+            ports::DEPTH_PINHOLE.to_owned(),
+            trigait_node_config::pinhole_parameter(k),
+        );
+    }
     params.insert(
         ports::SENT_NANOS.to_owned(),
         Parameter::Integer(now_nanos()),
@@ -564,6 +576,34 @@ fn metadata(c: &Captured) -> MetadataParameters {
     params
 }
 
+/// The open device's lens as an [`Undistorter`] map, rebuilt only when the device's
+/// intrinsics change (a rejoin may bring another device), so a frame costs one table lookup
+/// per pixel.
+#[derive(Default)]
+struct Lens {
+    map: Option<(IrParams, Undistorter)>,
+}
+
+impl Lens {
+    /// Undistorts `frame` to the ideal pinhole of the device's intrinsics and returns that
+    /// pinhole; `None` (the frame stays raw) when the intrinsics are unknown or unusable.
+    fn undistort(&mut self, params: Option<IrParams>, frame: &mut Captured) -> Option<[f64; 4]> {
+        let params =
+            params.filter(|p| p.fx.is_finite() && p.fy.is_finite() && p.fx > 0.0 && p.fy > 0.0)?;
+        if self.map.as_ref().is_none_or(|(p, _)| *p != params) {
+            self.map = Some((params, Undistorter::new(&params.intrinsics())));
+        }
+        let (_, map) = self.map.as_ref()?;
+        match frame.undistort(map) {
+            Ok(k) => Some(k),
+            Err(e) => {
+                warn!("{NODE}: sending a raw frame: {e}");
+                None
+            }
+        }
+    }
+}
+
 fn capture_loop(
     config: CaptureConfig,
     driver: Box<dyn Driver>,
@@ -572,15 +612,17 @@ fn capture_loop(
     tx: &mpsc::Sender<Msg>,
 ) {
     let mut capture = Capture::new(config, driver);
+    let mut lens = Lens::default();
     while !stop.load(Ordering::SeqCst) {
         let msg = match capture.poll(POLL) {
-            Some(trigait_freenect2::capture::Event::Frame(f)) => {
+            Some(trigait_freenect2::capture::Event::Frame(mut f)) => {
                 if !queue.offer() {
                     continue;
                 }
+                let pinhole = lens.undistort(capture.ir_params(), &mut f);
                 let c = capture.counters();
                 // The stream's frame number counts the lost frames too.
-                Msg::Frame(f, (c.frames - 1) + c.lost())
+                Msg::Frame(f, (c.frames - 1) + c.lost(), pinhole)
             }
             Some(trigait_freenect2::capture::Event::State(s)) => Msg::State(s),
             None => continue,
@@ -605,6 +647,122 @@ mod tests {
     use super::*;
 
     const PIXELS: usize = 512 * 424;
+    /// A pixel at the fake lens' principal point, which undistortion leaves in place.
+    const CENTRE: usize = 205 * 512 + 255;
+
+    /// The first frame of a fake device's capture.
+    fn first_frame(frames: Vec<Vec<f32>>) -> (Capture, Box<Captured>) {
+        let mut capture = Capture::new(
+            CaptureConfig::new(Selector::Index(0)),
+            Box::new(FakeDriver::new(vec![FakeKinect::new("S1", frames)])),
+        );
+        loop {
+            if let Some(trigait_freenect2::capture::Event::Frame(f)) =
+                capture.poll(Duration::from_millis(100))
+            {
+                return (capture, f);
+            }
+        }
+    }
+
+    /// The tilted plane n·p = d (Kinect-agnostic OpenCV frame, m) used below.
+    const PLANE_N: [f64; 3] = [0.3, -0.2, 1.0];
+    const PLANE_D: f64 = 2.2;
+
+    /// The plane's distance from the plane, m, of the point at depth `z_m` along `ray`.
+    fn off_plane((x, y): (f64, f64), z_m: f64) -> f64 {
+        let norm = PLANE_N.iter().map(|c| c * c).sum::<f64>().sqrt();
+        (PLANE_N[0] * x * z_m + PLANE_N[1] * y * z_m + PLANE_N[2] * z_m - PLANE_D) / norm
+    }
+
+    /// What the device's distorted lens sees of the plane: raw pixel (u, v) looks along the
+    /// undistorted ray of its distorted coordinates.
+    fn raw_plane(lens: &trigait_depth::Intrinsics) -> Vec<f32> {
+        (0..PIXELS)
+            .map(|i| {
+                let (u, v) = ((i % 512) as f64, (i / 512) as f64);
+                let (x, y) = lens.undistort((u - lens.cx) / lens.fx, (v - lens.cy) / lens.fy);
+                let z = PLANE_D / (PLANE_N[0] * x + PLANE_N[1] * y + PLANE_N[2]);
+                (z * 1000.0) as f32
+            })
+            .collect()
+    }
+
+    /// The backend's path on the fake device (whose lens has barrel distortion): the frame is
+    /// resampled to the device's pinhole, stamped on the metadata, and a tilted plane seen
+    /// through the lens back-projects onto the plane with the stamped pinhole to the resampling
+    /// (nearest raw pixel) and mm rounding, where the raw frame with the same pinhole is off by
+    /// centimetres at the edges.
+    #[test]
+    fn undistorted_plane_back_projects_to_the_plane() {
+        let (capture, _) = first_frame(wall());
+        let device = capture.ir_params().unwrap().intrinsics();
+        assert_ne!(device.dist, [0.0; 5], "the fake lens must be distorted");
+        let raw = raw_plane(&device);
+        drop(capture);
+        let (capture, mut captured) = first_frame(vec![raw.clone()]);
+        let mut lens = Lens::default();
+        let pinhole = lens
+            .undistort(capture.ir_params(), &mut captured)
+            .expect("undistorted with the device's intrinsics");
+        assert_eq!(pinhole, [device.fx, device.fy, device.cx, device.cy]);
+        let params = metadata(&captured, Some(pinhole));
+        let stamped = trigait_node_config::stamped_pinhole(&params).unwrap();
+        assert_eq!(stamped, pinhole);
+        let [fx, fy, cx, cy] = stamped;
+        let rays = trigait_depth::Intrinsics::pinhole(fx, fy, cx, cy).rays();
+        let sent = DepthFrameMessage::decode(encode("k1", 0, &captured, false).unwrap().0.as_ref())
+            .unwrap()
+            .depth_mm;
+        let (mut worst, mut with_data) = (0.0_f64, 0);
+        for (i, &mm) in sent.iter().enumerate() {
+            if mm > 0 {
+                with_data += 1;
+                worst = worst.max(off_plane(rays.at(i), f64::from(mm) / 1000.0).abs());
+            }
+        }
+        assert!(with_data > PIXELS * 9 / 10, "{with_data} pixels with data");
+        assert!(worst < 0.003, "undistorted: {worst} m off the plane");
+        let raw_worst = raw
+            .iter()
+            .enumerate()
+            .map(|(i, &mm)| off_plane(rays.at(i), f64::from(mm) / 1000.0).abs())
+            .fold(0.0, f64::max);
+        assert!(raw_worst > 0.02, "raw: {raw_worst} m off the plane");
+        // A second frame reuses the map; no intrinsics → the frame stays raw and unstamped.
+        let (_, mut again) = first_frame(vec![raw.clone()]);
+        assert_eq!(
+            lens.undistort(capture.ir_params(), &mut again),
+            Some(pinhole)
+        );
+        let (_, mut unknown) = first_frame(vec![raw.clone()]);
+        assert_eq!(lens.undistort(None, &mut unknown), None);
+        assert_eq!(unknown.depth.as_f32(), raw.as_slice());
+        assert_eq!(metadata(&unknown, None).get(ports::DEPTH_PINHOLE), None);
+        // The IR image of the same capture (the fake's is depth / 10) is resampled the same way.
+        let mut with_ir = CaptureConfig::new(Selector::Index(0));
+        with_ir.streams.ir = true;
+        let mut capture = Capture::new(
+            with_ir,
+            Box::new(FakeDriver::new(vec![FakeKinect::new("S1", vec![raw])])),
+        );
+        let mut captured = loop {
+            if let Some(trigait_freenect2::capture::Event::Frame(f)) =
+                capture.poll(Duration::from_millis(100))
+            {
+                break f;
+            }
+        };
+        assert!(captured.ir.is_some());
+        assert_eq!(
+            lens.undistort(capture.ir_params(), &mut captured),
+            Some(pinhole)
+        );
+        let ir = captured.ir.as_ref().unwrap().as_f32();
+        for (d, i) in captured.depth.as_f32().iter().zip(ir) {
+            assert!((d / 10.0 - i).abs() <= d.abs() * 1e-6, "depth {d}, ir {i}");
+        }
+    }
 
     fn config() -> Config {
         Config::from_lookup(lookup(&[("SENSOR_ID", "k1"), ("BACKEND", "freenect2")])).unwrap()
@@ -721,10 +879,8 @@ mod tests {
                 (
                     row["seq"].as_u64().unwrap(),
                     row["local_stamp_nanos"].as_i64().unwrap(),
-                    row["depth_mm"].as_array().unwrap()[..3]
-                        .iter()
-                        .map(|v| v.as_u64().unwrap())
-                        .collect::<Vec<_>>(),
+                    [0, CENTRE, CENTRE + 1]
+                        .map(|i| row["depth_mm"].as_array().unwrap()[i].as_u64().unwrap()),
                 )
             })
             .collect();
@@ -739,9 +895,15 @@ mod tests {
             skipped <= summary.dropped_busy + summary.capture.lost(),
             "{skipped} sequence numbers skipped, {summary:?}"
         );
+        // Undistorted: the corner takes another raw pixel (raw it would be 2000), the centre
+        // stays put.
         for (_, stamp, mm) in &depth {
             assert!((start..=end).contains(stamp));
-            assert_eq!(mm, &[2000, 2001, 2002]);
+            assert_ne!(mm[0], 2000, "{mm:?}");
+            assert_eq!(
+                mm[1..],
+                [2000 + CENTRE as u64 % 7, 2000 + (CENTRE as u64 + 1) % 7]
+            );
         }
         let replies = trigait_node_testing::output_arrays(&outputs, "ntp_reply");
         assert_eq!(replies.len(), 2);
@@ -763,7 +925,8 @@ mod tests {
                 break f;
             }
         };
-        let params = metadata(&captured);
+        let params = metadata(&captured, None);
+        assert_eq!(params.get(ports::DEPTH_PINHOLE), None);
         assert_eq!(
             params.get(HOST_ARRIVAL_NANOS),
             Some(&Parameter::Integer(captured.host_nanos))
@@ -789,6 +952,7 @@ mod tests {
                 break f;
             }
         };
+        // Raw (the capture state machine's frame, not undistorted by the backend here).
         let (array, ir) = encode("k1", 4, &captured, false).unwrap();
         assert!(ir.is_none());
         let m = DepthFrameMessage::decode(array.as_ref()).unwrap();

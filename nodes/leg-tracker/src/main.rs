@@ -9,6 +9,8 @@
 //! A malformed message, a frame of another sensor or of the wrong size is counted and skipped.
 //! With `RERUN`, each frame's person mask and fitted legs are logged for debugging
 //! ([`trigait_depth_rerun::log_legs`]).
+//! Each frame is taken by the camera its source stamped (`trigait.depth_pinhole`, an
+//! undistorted real frame), otherwise the configured (nominal) camera ([`frame_camera`]).
 //! Configuration: [`config`].
 
 mod config;
@@ -165,6 +167,46 @@ pub fn track_message(
     Ok((frame, tracked.status))
 }
 
+/// The tracker's camera for a frame with metadata `params`: the pinhole its source stamped on
+/// an undistorted real frame ([`trigait_node_config::stamped_pinhole`], in
+/// `trigait_camera::Intrinsics`' convention where pixel index u looks along (u − cx)/fx; this
+/// camera's column u spans u..u+1, so its principal point is half a pixel further), otherwise
+/// `configured` (the nominal camera).
+#[must_use]
+pub fn frame_camera(
+    configured: &trigait_kinect::Intrinsics,
+    params: &dora_node_api::MetadataParameters,
+) -> trigait_kinect::Intrinsics {
+    trigait_node_config::stamped_pinhole(params).map_or(*configured, |[fx, fy, cx, cy]| {
+        trigait_kinect::Intrinsics {
+            fx,
+            fy,
+            cx: cx + 0.5,
+            cy: cy + 0.5,
+            ..*configured
+        }
+    })
+}
+
+/// Makes `tracker` see through `camera` ([`frame_camera`]): when it is not the tracker's
+/// camera, the tracker is rebuilt with it (its rays are precomputed), which starts its
+/// tracking afresh. Returns whether it was rebuilt.
+///
+/// # Errors
+/// The tracker refuses the camera.
+pub fn use_camera(
+    tracker: &mut LegTracker,
+    camera: trigait_kinect::Intrinsics,
+) -> eyre::Result<bool> {
+    if tracker.config().camera.intrinsics == camera {
+        return Ok(false);
+    }
+    let mut config = tracker.config().clone();
+    config.camera.intrinsics = camera;
+    *tracker = LegTracker::new(config).context("leg-tracker: the depth camera changed")?;
+    Ok(true)
+}
+
 /// The event loop.
 pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre::Result<Counters> {
     let rec = config
@@ -175,6 +217,7 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
         .map_err(|e| eyre::eyre!("leg-tracker: {}: {e}", config::RERUN))?;
     let mut tracker =
         LegTracker::new(config.tracker).context("leg-tracker: building the tracker")?;
+    let configured_camera = tracker.config().camera.intrinsics;
     let frame_out = DataId::from(ports::FRAME.to_owned());
     let mut counters = Counters::default();
     while let Some(event) = events.recv() {
@@ -182,6 +225,10 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
         match event {
             Event::Input { id, metadata, data } => match id.as_str() {
                 ports::DEPTH => {
+                    let camera = frame_camera(&configured_camera, &metadata.parameters);
+                    if use_camera(&mut tracker, camera)? {
+                        info!("depth camera: {camera:?}");
+                    }
                     let (frame, status) = match track_message(
                         &mut tracker,
                         &config.sensor_id,

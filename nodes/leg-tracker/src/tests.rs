@@ -204,3 +204,41 @@ fn depth_frames_in_skeleton_frames_out() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A frame's stamped pinhole (`trigait.depth_pinhole`) becomes the tracker's camera, once,
+/// with the principal point moved into the tracker camera's pixel-centre convention (the same
+/// rays); an unstamped frame is the configured camera.
+#[test]
+fn stamped_pinhole_is_the_trackers_camera() {
+    let mut tracker =
+        trigait_leg_tracker::LegTracker::new(trigait_leg_tracker::TrackerConfig::default())
+            .unwrap();
+    let configured = tracker.config().camera.intrinsics;
+    let plain = dora_node_api::MetadataParameters::default();
+    let nominal = crate::frame_camera(&configured, &plain);
+    assert_eq!(nominal, configured);
+    assert!(!crate::use_camera(&mut tracker, nominal).unwrap());
+    let k = [365.456, 365.456, 254.878, 205.395];
+    let mut stamped = dora_node_api::MetadataParameters::default();
+    stamped.insert(
+        trigait_schema::ports::DEPTH_PINHOLE.to_owned(),
+        trigait_node_config::pinhole_parameter(k),
+    );
+    let camera = crate::frame_camera(&configured, &stamped);
+    assert!(crate::use_camera(&mut tracker, camera).unwrap());
+    let used = tracker.config().camera.intrinsics;
+    assert_eq!(
+        (used.fx, used.fy, used.width, used.height),
+        (k[0], k[1], 512, 424)
+    );
+    // Pixel (10, 20) looks along the stamped pinhole's ray of pixel index (10, 20).
+    let lens = trigait_depth::Intrinsics::pinhole(k[0], k[1], k[2], k[3]);
+    let (x, y) = used.pixel_ray(10, 20);
+    let (xo, yo) = lens.ray_opencv(10.0, 20.0);
+    assert!(
+        (x + xo).abs() < 1e-12 && (y + yo).abs() < 1e-12,
+        "{x} {y} vs {xo} {yo}"
+    );
+    assert!(!crate::use_camera(&mut tracker, camera).unwrap());
+    assert!(crate::use_camera(&mut tracker, nominal).unwrap());
+}

@@ -89,6 +89,12 @@ pub const RIG_NODE: &str = "trigait.rig_node";
 /// (`STOP_AFTER_SECS`), so `sync` takes the closed input for the run's end, not a failure.
 pub const END_OF_STREAM: &str = "trigait.end_of_stream";
 
+/// Metadata key (list of 4 floats, px: fx, fy, cx, cy) on a `depth_frame` a source has
+/// undistorted: the frame is an ideal distortion-free pinhole with these intrinsics, in
+/// `trigait_camera::Intrinsics`' convention (pixel index u looks along (u − cx)/fx). A frame
+/// without it is the nominal camera (`Intrinsics::default()`).
+pub const DEPTH_PINHOLE: &str = "trigait.depth_pinhole";
+
 /// Every metadata key above (the message reference documents each).
 pub const METADATA_KEYS: &[&str] = &[
     SENT_NANOS,
@@ -101,6 +107,7 @@ pub const METADATA_KEYS: &[&str] = &[
     RIG_NAME,
     RIG_NODE,
     END_OF_STREAM,
+    DEPTH_PINHOLE,
 ];
 
 /// The sensor id of a `sync`/`recorder` input id with `prefix` (`frame_k1` → `k1`).
