@@ -197,16 +197,9 @@ fn calibrate_and_write(config: &Config, frames: &[FrameTiming]) {
 mod tests {
     #![allow(clippy::unwrap_used)]
 
-    use super::*;
+    use trigait_node_testing::lookup;
 
-    fn lookup(pairs: &'static [(&'static str, &'static str)]) -> impl Fn(&str) -> Option<String> {
-        move |k| {
-            pairs
-                .iter()
-                .find(|(key, _)| *key == k)
-                .map(|(_, v)| (*v).to_owned())
-        }
-    }
+    use super::*;
 
     /// Defaults, the data start, and bad values named.
     #[test]
