@@ -273,9 +273,12 @@ fn render(o: &Outcome) -> String {
     let g = &c.gauge;
     let _ = writeln!(
         out,
-        "\nworld frame: floor from {} stance ankle samples (spread {:.2} m along, {:.2} m across the walk, \
-         RMS {:.1} mm), ankle height {:.3} m; σ rotation x/y/z {:.3}/{:.3}/{:.3} deg; \
-         {:.0} mm and {:.2} deg from the motion's own frame",
+        "\nworld frame: up from the plane of {} pelvis samples (RMS {:.1} mm), floor from {} stance \
+         ankle samples (spread {:.2} m along, {:.2} m across the walk, RMS {:.1} mm), ankle height \
+         {:.3} m; σ rotation x/y/z {:.3}/{:.3}/{:.3} deg; {:.0} mm and {:.2} deg from the motion's \
+         own frame",
+        g.pelvis_samples,
+        g.pelvis_rms_m * 1e3,
         g.stance_samples,
         g.stance_spread_m[0],
         g.stance_spread_m[1],

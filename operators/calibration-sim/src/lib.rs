@@ -89,6 +89,18 @@ pub struct SensorScore {
     pub shape_error_m: f64,
 }
 
+/// The calibration's world frame against the truth's, both fixed from the walk the same way:
+/// the one rigid motion that best maps the true poses (in the truth's frame) onto the
+/// calibrated ones. With the rig's own geometry right, this is what is left of the error.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct FrameError {
+    /// Rotation about world x (the floor's tilt across the walk), y (its tilt along the walk)
+    /// and z (the walking direction), radians.
+    pub rotation_rad: [f64; 3],
+    /// Where the truth's origin lies in the calibration's world frame, metres.
+    pub origin_m: [f64; 3],
+}
+
 /// A scenario's outcome.
 #[derive(Debug, Clone, Serialize)]
 pub struct Outcome {
@@ -107,6 +119,11 @@ pub struct Outcome {
     pub frame_offset_m: f64,
     /// See [`Outcome::frame_offset_m`].
     pub frame_rotation_rad: f64,
+    /// The part of the error that is the world frame's.
+    pub frame_error: FrameError,
+    /// Angle between the floor the walk defines (fixed from the true joints) and the motion's
+    /// own floor, radians: how level the walk's frame is in the lab.
+    pub floor_tilt_rad: f64,
     /// Fusion RMSE on a fresh draw of the same walk with the true rig, metres.
     pub fusion_rmse_true_m: f64,
     /// The same with the calibrated rig.
@@ -272,6 +289,32 @@ pub fn rigid_residuals(from: &[Vector3<f64>], to: &[Vector3<f64>]) -> Vec<f64> {
         .collect()
 }
 
+/// The rigid motion from truth to estimate over `pairs` of (true, estimated) poses: the mean
+/// rotation (of nearly equal ones) and the translation that best fits the centres under it.
+fn frame_error(pairs: &[(Isometry3<f64>, Isometry3<f64>)]) -> FrameError {
+    if pairs.is_empty() {
+        return FrameError::default();
+    }
+    let n = pairs.len() as f64;
+    let first = pairs[0].1.rotation * pairs[0].0.rotation.inverse();
+    let mean_delta = pairs
+        .iter()
+        .map(|(t, c)| (first.inverse() * c.rotation * t.rotation.inverse()).scaled_axis())
+        .sum::<Vector3<f64>>()
+        / n;
+    let r = first * UnitQuaternion::from_scaled_axis(mean_delta);
+    let d = pairs
+        .iter()
+        .map(|(t, c)| c.translation.vector - r * t.translation.vector)
+        .sum::<Vector3<f64>>()
+        / n;
+    let rv = r.scaled_axis();
+    FrameError {
+        rotation_rad: [rv.x, rv.y, rv.z],
+        origin_m: [d.x, d.y, d.z],
+    }
+}
+
 /// Angle between the orientations of two poses, radians.
 #[must_use]
 pub fn rotation_angle(a: &Isometry3<f64>, b: &Isometry3<f64>) -> f64 {
@@ -359,6 +402,15 @@ pub fn simulate(scenario: &Scenario) -> Result<Outcome> {
         }
     }
 
+    let frame_error = frame_error(
+        &calibration
+            .sensors
+            .iter()
+            .zip(&truth.sensors)
+            .filter_map(|(c, t)| Some((g * t.world_from_kinect, c.world_from_kinect?)))
+            .collect::<Vec<_>>(),
+    );
+
     // Fusion on a fresh draw: true rig vs calibrated rig (mapped back into the lab frame).
     let lab_from_world = g.inverse();
     let calibrated: Vec<Option<Isometry3<f64>>> = calibration
@@ -441,6 +493,8 @@ pub fn simulate(scenario: &Scenario) -> Result<Outcome> {
         scores,
         frame_offset_m: g.translation.vector.norm(),
         frame_rotation_rad: g.rotation.angle(),
+        frame_error,
+        floor_tilt_rad: (g.rotation.inverse() * Vector3::z()).angle(&Vector3::z()),
         fusion_rmse_true_m: (sq_true / samples as f64).sqrt(),
         fusion_rmse_calibrated_m: (sq_cal / samples as f64).sqrt(),
         fusion_samples: samples,

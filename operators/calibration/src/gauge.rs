@@ -4,21 +4,28 @@
 //! world is: that gauge (six degrees of freedom) is fixed here, from the same tracks, the same
 //! way for an estimate and for ground truth, so the two can be compared:
 //!
-//! - **Z (up) and the floor**: the stance ankles. Ankle samples that barely move (stance) are
-//!   fitted by a plane, trimmed to the lowest consistent band; its normal, pointing from the
-//!   ankles to the hips, is +Z. The floor lies the ankle joint's height below that plane:
-//!   0.039 × body height (Winter 2009, Fig. 4.1), the height taken from the tracked leg length
-//!   (thigh + shank = 0.491 × height, same source), unless given.
-//! - **X**: the principal direction of the pelvis velocities (mid-point of the hips) on the
-//!   floor, signed by where the walk goes during its first second.
+//! - **Z (up)**: the normal of the plane the pelvis (mid-point of the hips) moves in, pointing
+//!   from the ankles to the hips. On a level floor the pelvis keeps its height to within its
+//!   bob, the same on either lane and either way along it; it is the least noisy of the joints
+//!   (two hips, none of the ankles' extra scatter) and is seen at every instant, where the
+//!   stance ankles give a few samples per step — a plane through those moves by tenths of a
+//!   degree with the trackers' noise over a walk of 30 s, the pelvis plane by hundredths.
+//! - **The floor's level**: the stance ankles, one ankle height below them. A stance is the run
+//!   between two swings (ankle faster than 1 m/s, which it passes within hundredths of a second,
+//!   so where a stance starts and ends hardly depends on the noise); its middle half is used
+//!   (the foot is still rolling on at the start, the heel lifting at the end), Huber-weighted
+//!   with a fixed threshold. The ankle height is 0.039 × body height (Winter 2009, Fig. 4.1),
+//!   the height taken from the tracked leg length (thigh + shank = 0.491 × height, same
+//!   source), unless given.
+//! - **X**: the principal direction of the pelvis velocities on the floor, signed by where the
+//!   walk goes during its first second.
 //! - **Origin**: on the floor below the mean pelvis position.
 //!
-//! What the floor can and cannot tell: its tilt *along* the walk is fixed by the metres walked,
-//! but its tilt *across* the walk only by how far apart across the walk the stance feet are. On a
-//! straight line (or out and back on the same line) that is the step width, about 0.1 m, and any
-//! left/right difference of the ankle centres' height (anatomy, tracker bias) tilts the
-//! "floor" by degrees — so that rotation is reported as unobservable, with the advice to walk a
-//! second line to the side, or to turn.
+//! What the walk can and cannot tell: the floor's tilt *along* the walk is fixed by the metres
+//! walked, but its tilt *across* the walk only by how far apart across the walk the path runs.
+//! On a straight line (or out and back on the same line) that is the pelvis's sway and the
+//! step width, a few centimetres, and the tilt across is left to the noise — so that rotation
+//! is reported as unobservable, with the advice to walk a second line to the side, or to turn.
 
 use nalgebra::{
     Isometry3, Matrix2, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3,
@@ -32,8 +39,25 @@ use crate::{Error, Result};
 const ANKLE_HEIGHT_PER_HEIGHT: f64 = 0.039;
 /// Winter 2009: thigh + shank (hip to knee to ankle joint centre), as a share of body height.
 const LEG_PER_HEIGHT: f64 = 0.245 + 0.246;
-/// Ankle speed below which an ankle sample is taken as stance, m/s (swing peaks near 4 m/s).
-const STANCE_SPEED_MPS: f64 = 0.3;
+/// Ankle speed above which the foot swings, m/s. A swinging ankle peaks near 4 m/s and passes
+/// 1 m/s within a few hundredths of a second, so where a swing starts and ends hardly moves
+/// with the trackers' noise; a threshold near stance speeds would let the noise pick which
+/// samples count as stance, and those it adds (the heel rising) stand higher.
+const SWING_SPEED_MPS: f64 = 1.0;
+/// Half the chord the ankle speed is measured over, seconds.
+const SPEED_HALF_CHORD_SECS: f64 = 0.1;
+/// Shortest swing, seconds: a faster-than-swing blip shorter than this is noise.
+const MIN_SWING_SECS: f64 = 0.1;
+/// Share of each stance (from one swing to the next) left out at either end: after heel strike
+/// the foot is still rolling onto the floor, before toe-off the heel is already lifting.
+const STANCE_EDGE_SHARE: f64 = 0.25;
+/// Fewest samples in the middle of a stance for it to count.
+const MIN_STANCE_CORE: usize = 3;
+/// Huber threshold of the floor fit, metres: above the scatter of a fused stance ankle, below a
+/// mislabelled or lifted one.
+const FLOOR_HUBER_M: f64 = 0.03;
+/// Reweighting rounds of the floor fit.
+const FLOOR_ITERATIONS: usize = 6;
 /// Fewest stance samples a floor is fitted to.
 const MIN_STANCE_SAMPLES: usize = 10;
 /// Chord over which the pelvis velocity is measured for the walking direction, seconds.
@@ -97,8 +121,13 @@ pub struct Gauge {
     pub stance_samples: usize,
     /// Standard deviation of those samples along the walk (x) and across it (y), metres.
     pub stance_spread_m: [f64; 2],
-    /// RMS distance of the stance samples from the fitted plane, metres.
+    /// RMS distance of the stance samples from the floor's level (plus the ankle height), metres.
     pub floor_rms_m: f64,
+    /// Pelvis positions (mid-point of the hips) the floor's normal was fitted to.
+    pub pelvis_samples: usize,
+    /// RMS distance of the pelvis positions from their plane, metres: the pelvis's bob (a few
+    /// centimetres) and the noise.
+    pub pelvis_rms_m: f64,
     /// Standard deviation of the world frame's rotation about x (the floor's tilt across the
     /// walk), y (its tilt along the walk) and z (the walking direction), radians, from the
     /// scatter of the samples that fixed them.
@@ -181,92 +210,66 @@ pub fn gauge(tracks: &Tracks, ankle_height_m: Option<f64>) -> Result<Gauge> {
             what: "both hips (the pelvis path)",
         });
     }
-    let flat = |v: Vector3<f64>, n: &Vector3<f64>| v - n * n.dot(&v);
 
-    // Stance ankles.
-    let mut stance = Vec::new();
-    for ankle in ankles {
-        for k in 2..n.saturating_sub(2) {
-            let (Some(a), Some(b), Some(p)) = (
-                tracks.get(k - 2, ankle),
-                tracks.get(k + 2, ankle),
-                tracks.get(k, ankle),
-            ) else {
-                continue;
-            };
-            if (b - a).norm() / (4.0 * dt) < STANCE_SPEED_MPS {
-                stance.push(p);
-            }
-        }
-    }
+    // Stance ankles: the middle of each stance between two swings.
+    let stance: Vec<Point3<f64>> = ankles
+        .iter()
+        .flat_map(|a| stance_cores(tracks, *a))
+        .flatten()
+        .collect();
     if stance.len() < MIN_STANCE_SAMPLES {
         return Err(Error::NoFloor {
             stance_samples: stance.len(),
         });
     }
-    // Plane fit, trimmed to the band the flat foot makes (heel and toe rockers lift the ankle).
-    let mut kept = stance.clone();
-    let mut normal = up;
-    for _ in 0..3 {
-        let (c, cov) = mean_cov(&kept);
-        let eig = cov.symmetric_eigen();
-        let (imin, _) = eig
-            .eigenvalues
-            .iter()
-            .enumerate()
-            .min_by(|a, b| a.1.total_cmp(b.1))
-            .unwrap_or((0, &0.0));
-        let mut candidate: Vector3<f64> = eig.eigenvectors.column(imin).into_owned();
-        if candidate.dot(&up) < 0.0 {
-            candidate = -candidate;
-        }
-        // Stance feet on one line leave the tilt across it to the noise: keep the body's up
-        // there (reported as unobservable below) rather than a plane through the line at random.
-        normal = if candidate.dot(&up) > 30f64.to_radians().cos() {
-            candidate
-        } else {
-            let (_, along) = principal_direction(&kept, &up);
-            unit(flat(up, &along)).unwrap_or(up)
-        };
-        let heights: Vec<f64> = stance.iter().map(|p| (p - c).dot(&normal)).collect();
-        let mid = median(heights.clone());
-        let mad = 1.4826 * median(heights.iter().map(|h| (h - mid).abs()).collect());
-        let band = (2.5 * mad).max(0.005);
-        let next: Vec<Point3<f64>> = stance
-            .iter()
-            .zip(&heights)
-            .filter(|(_, h)| (**h - mid).abs() <= band)
-            .map(|(p, _)| *p)
-            .collect();
-        if next.len() < MIN_STANCE_SAMPLES {
-            break;
-        }
-        kept = next;
-    }
-    let (c_stance, _) = mean_cov(&kept);
-    let floor_level = c_stance.coords.dot(&normal) - ankle_height_m;
-
+    // The floor's normal: the normal of the plane the pelvis moves in. The pelvis keeps its
+    // height above a level floor to within its own bob, which is the same on either lane and
+    // either way along it; of all the joints it is the least noisy (two hips, no ankle gain)
+    // and it is seen at every instant, where the stance ankles give a few samples per step:
+    // fitted to the stance ankles, the tilt is at the mercy of their scatter (tenths of a
+    // degree over a walk of 30 s), fitted to the pelvis path a few hundredths.
     let pelvis_points: Vec<Point3<f64>> = pelvis.iter().map(|(_, p)| *p).collect();
-    // Walking direction: the principal axis of the pelvis velocities on the floor (sign-free,
-    // so out and back count alike, and unmoved by where the passes lie).
-    // Over a second (two steps), so the sway and the noise average out; a chord whose middle is
-    // off the line is a turn and is left out.
-    let half = ((HEADING_WINDOW_SECS / 2.0) / dt).round().max(1.0) as usize;
-    let mut velocities = Vec::new();
-    for k in half..n.saturating_sub(half) {
-        let (Some(a), Some(m), Some(b)) = (
-            tracks.pelvis(k - half),
-            tracks.pelvis(k),
-            tracks.pelvis(k + half),
-        ) else {
-            continue;
-        };
-        let v = flat((b - a) / (2.0 * half as f64 * dt), &normal);
-        let bend = flat(m - nalgebra::center(&a, &b), &normal).norm();
-        if (0.3..3.0).contains(&v.norm()) && bend < 0.05 {
-            velocities.push(v.normalize());
-        }
+    let (_, pelvis_cov) = mean_cov(&pelvis_points);
+    let eig = pelvis_cov.symmetric_eigen();
+    let (imin, _) = eig
+        .eigenvalues
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .unwrap_or((0, &0.0));
+    let mut candidate: Vector3<f64> = eig.eigenvectors.column(imin).into_owned();
+    if candidate.dot(&up) < 0.0 {
+        candidate = -candidate;
     }
+    // A path on one line leaves the tilt across it to the sway and the noise: keep the body's
+    // up there (reported as unobservable below) rather than a plane through the line at random.
+    let normal = if candidate.dot(&up) > 30f64.to_radians().cos() {
+        candidate
+    } else {
+        let (_, along) = principal_direction(&pelvis_points, &up);
+        unit(flat(up, &along)).unwrap_or(up)
+    };
+    // The floor's level: the stance ankles, Huber-weighted with a fixed threshold (so the
+    // weights do not depend on how noisy the tracks are: symmetric noise moves nothing, a
+    // mislabelled ankle little).
+    let heights: Vec<f64> = stance.iter().map(|p| p.coords.dot(&normal)).collect();
+    let mut level = median(heights.clone());
+    for _ in 0..FLOOR_ITERATIONS {
+        let (sum, wsum) = heights.iter().fold((0.0, 0.0), |(s, ws), h| {
+            let r = (h - level).abs();
+            let w = if r <= FLOOR_HUBER_M {
+                1.0
+            } else {
+                FLOOR_HUBER_M / r
+            };
+            (s + w * h, ws + w)
+        });
+        level = sum / wsum;
+    }
+    let kept = stance;
+    let floor_level = level - ankle_height_m;
+
+    let velocities = pelvis_directions(tracks, &normal);
     if velocities.len() < 3 {
         return Err(Error::TooLittleMotion {
             path_m: 0.0,
@@ -332,19 +335,113 @@ pub fn gauge(tracks: &Tracks, ankle_height_m: Option<f64>) -> Result<Gauge> {
         .collect();
     let heading_sigma = (lateral.iter().map(|v| v * v).sum::<f64>() / lateral.len() as f64).sqrt()
         / (lateral.len() as f64).sqrt();
-    let tilt = |s: f64| floor_rms / (s.max(1e-6) * ns);
+    let (pc, pcov) = mean_cov(&pelvis_w);
+    let pelvis_spread = [pcov[(0, 0)].sqrt(), pcov[(1, 1)].sqrt()];
+    let pelvis_rms =
+        (pelvis_w.iter().map(|p| (p.z - pc.z).powi(2)).sum::<f64>() / pelvis_w.len() as f64).sqrt();
+    // The pelvis's bob counts as noise here, so this errs on the safe side.
+    let tilt = |s: f64| pelvis_rms / (s.max(1e-6) * np);
     Ok(Gauge {
         world_from_frame,
         ankle_height_m,
         stance_samples: stance_w.len(),
         stance_spread_m: spread,
         floor_rms_m: floor_rms,
-        rotation_sigma_rad: [tilt(spread[1]), tilt(spread[0]), heading_sigma],
-        // The origin is a mean of the pelvis path, so only the noise of its points moves it; the
-        // stance ankles' scatter about the floor stands for that noise.
-        origin_sigma_m: [floor_rms / np, floor_rms / np, floor_rms / ns],
+        pelvis_samples: pelvis_w.len(),
+        pelvis_rms_m: pelvis_rms,
+        rotation_sigma_rad: [
+            tilt(pelvis_spread[1]),
+            tilt(pelvis_spread[0]),
+            heading_sigma,
+        ],
+        // Along and across the floor the origin is a mean of the pelvis path, its height that of
+        // the stance ankles.
+        origin_sigma_m: [pelvis_rms / np, pelvis_rms / np, floor_rms / ns],
         path_extent_m,
     })
+}
+
+/// Walking directions from the pelvis: over a second (two steps), so the sway and the noise
+/// average out; a chord whose middle is off the line is a turn and is left out.
+fn pelvis_directions(tracks: &Tracks, normal: &Vector3<f64>) -> Vec<Vector3<f64>> {
+    let n = tracks.positions.len();
+    let dt = tracks.dt_secs;
+    let half = ((HEADING_WINDOW_SECS / 2.0) / dt).round().max(1.0) as usize;
+    let mut velocities = Vec::new();
+    for k in half..n.saturating_sub(half) {
+        let (Some(a), Some(m), Some(b)) = (
+            tracks.pelvis(k - half),
+            tracks.pelvis(k),
+            tracks.pelvis(k + half),
+        ) else {
+            continue;
+        };
+        let v = flat((b - a) / (2.0 * half as f64 * dt), normal);
+        let bend = flat(m - nalgebra::center(&a, &b), normal).norm();
+        if (0.3..3.0).contains(&v.norm()) && bend < 0.05 {
+            velocities.push(v.normalize());
+        }
+    }
+    velocities
+}
+
+fn flat(v: Vector3<f64>, n: &Vector3<f64>) -> Vector3<f64> {
+    v - n * n.dot(&v)
+}
+
+/// The middle of every stance of `ankle`: a stance is a run of instants at which the ankle
+/// moves slower than a swing, with a swing right before and right after (a run cut short by a
+/// gap, or at the start or end of the tracks, is not known to be a whole stance and is left
+/// out); its middle leaves [`STANCE_EDGE_SHARE`] out at either end.
+fn stance_cores(tracks: &Tracks, ankle: Joint) -> Vec<Vec<Point3<f64>>> {
+    let n = tracks.positions.len();
+    let dt = tracks.dt_secs;
+    let h = (SPEED_HALF_CHORD_SECS / dt).round().max(1.0) as usize;
+    let min_swing = (MIN_SWING_SECS / dt).round().max(1.0) as usize;
+    let p: Vec<Option<Point3<f64>>> = (0..n).map(|k| tracks.get(k, ankle)).collect();
+    // Some(true): swinging, Some(false): not, None: unknown.
+    let mut swing: Vec<Option<bool>> = vec![None; n];
+    for k in h..n.saturating_sub(h) {
+        if (k - h..=k + h).all(|i| p[i].is_some())
+            && let (Some(a), Some(b)) = (p[k - h], p[k + h])
+        {
+            swing[k] = Some((b - a).norm() / (2.0 * h as f64 * dt) > SWING_SPEED_MPS);
+        }
+    }
+    let runs = |swing: &[Option<bool>], what: Option<bool>| {
+        let mut out = Vec::new();
+        let mut k = 0;
+        while k < n {
+            if swing[k] == what {
+                let s = k;
+                while k < n && swing[k] == what {
+                    k += 1;
+                }
+                out.push(s..k);
+            } else {
+                k += 1;
+            }
+        }
+        out
+    };
+    for r in runs(&swing, Some(true)) {
+        if r.len() < min_swing {
+            for v in &mut swing[r] {
+                *v = Some(false);
+            }
+        }
+    }
+    runs(&swing, Some(false))
+        .into_iter()
+        .filter(|r| r.start > 0 && swing[r.start - 1] == Some(true))
+        .filter(|r| r.end < n && swing[r.end] == Some(true))
+        .filter_map(|r| {
+            let cut = (r.len() as f64 * STANCE_EDGE_SHARE).floor() as usize;
+            let core: Vec<Point3<f64>> =
+                (r.start + cut..r.end - cut).filter_map(|k| p[k]).collect();
+            (core.len() >= MIN_STANCE_CORE).then_some(core)
+        })
+        .collect()
 }
 
 /// The mean and the dominant direction of `points` in the plane normal to `normal`.

@@ -18,8 +18,8 @@
 //!    unknown joint positions and optionally a residual clock offset per sensor, weighted by
 //!    the Kinect noise model, with reports beyond the 99.9 % χ² gate dropped as outliers;
 //! 5. fixes the **world frame from the data** ([`gauge`]), the same way whether or not a rough rig
-//!    was given: floor from the stance ankles (z up, floor z = 0), x along the walk, origin on
-//!    the floor below the mean pelvis position;
+//!    was given: z up normal to the plane the pelvis moves in, the floor (z = 0) below the
+//!    stance ankles, x along the walk, origin on the floor below the mean pelvis position;
 //! 6. says **why** when something is off ([`Finding`]): a walk that leaves a rotation
 //!    unobservable, a sensor that saw too little, a sensor with left and right swapped, a
 //!    sensor inconsistent with the others; and gives each pose's uncertainty in millimetres and
@@ -28,7 +28,7 @@
 //!
 //! What a walk can determine: the sensors relative to each other need only joints that are not
 //! all on one line, which a walking body always gives. The world frame needs the floor, whose
-//! tilt across the walk is only as good as the stance feet's spread across the walk: a turn or a
+//! tilt across the walk is only as good as the path's spread across the walk: a turn or a
 //! second line to the side, not a straight line (see [`gauge`]).
 
 #![warn(missing_docs)]
