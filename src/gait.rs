@@ -634,6 +634,12 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
         q.bridged_samples,
         q.remaining_gaps
     ));
+    if let Some(floor) = a.floor.filter(|f| f.applied) {
+        out.push(format!(
+            "floor levelled: the resting feet lie on a plane tilted by {:.1} deg ({} samples)",
+            floor.tilt_deg, floor.samples
+        ));
+    }
     if a.rejected_events > 0 {
         out.push(format!(
             "{} proposed events dropped: the foot was airborne",

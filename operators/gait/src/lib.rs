@@ -65,6 +65,7 @@ pub mod clean;
 mod error;
 mod events;
 pub mod filter;
+pub mod floor;
 mod live;
 mod params;
 pub mod physics;
@@ -80,6 +81,7 @@ pub use error::{Error, Result};
 pub use events::{
     EventKind, EventMethod, EventParams, Foot, GaitEvent, RUNNING_FLIGHT_FRACTION, detect_events,
 };
+pub use floor::FloorLevel;
 pub use live::{FootCounts, LiveAnalysis, LiveGait, LiveGaitParams, LiveReport, TimedEvent};
 pub use params::{
     Comparison, GaitAnalysis, GaitParams, Stat, Step, Stride, Summary, Tolerances, analyse,

@@ -59,7 +59,8 @@ pub const MAX_PELVIS_TRAVEL_M: f64 = 0.5;
 pub const MIN_FOOT_EXCURSION_M: f64 = 0.25;
 /// Heel samples within this height of the heel's stance level count as stance (m).
 pub const STANCE_HEIGHT_M: f64 = 0.03;
-/// A belt slower than this (m/s) is no treadmill walk (stepping in place).
+/// A belt slower than this (m/s) is no treadmill walk (stepping in place): the median velocity of
+/// all low heel samples along the axis must reach it, as must the estimate.
 const MIN_BELT_SPEED_MPS: f64 = 0.2;
 
 fn percentile(values: &mut [f64], q: f64) -> Option<f64> {
@@ -164,6 +165,14 @@ pub(crate) fn correct(
         .filter(|v| *v > 0.0)
         .collect();
     let stance_samples = stance.len();
+    // A foot resting on a still floor moves as often forwards as backwards (tracker jitter), so
+    // the median of the positive speeds alone would read its noise as a belt: on a belt the
+    // median of *all* low samples moves with it, in place it stays near zero.
+    let mut signed: Vec<f64> = velocities.iter().map(|v| v * sign).collect();
+    let belt_like = percentile(&mut signed, 0.5).is_some_and(|v| v >= MIN_BELT_SPEED_MPS);
+    if !declared && !belt_like {
+        return None;
+    }
     let estimated = percentile(&mut stance, 0.5);
     let (belt_speed, speed_estimated) = match mode {
         TreadmillMode::Treadmill {
