@@ -29,9 +29,10 @@ fn scratch(name: &str) -> PathBuf {
 /// mask (8-bit, as many 255 pixels as the report's person pixels) and the overlay.
 ///
 /// Goals: IoU ≥ 0.85 and a median ≤ 8 cm. Measured: IoU 0.841, median of the six 0.111 m
-/// (mean of the middle two; the SDK's hips sit 12 cm below the tracker's stature-based hip
-/// centres, and its rear ankle in toe-off is far off; see the README). Neither goal is met; the
-/// test pins the measured state (IoU ≥ 0.83, median ≤ 0.16 m).
+/// (mean of the middle two, as the library's test takes it too; the SDK's hips sit 8–12 cm
+/// below the tracker's stature-based hip centres, and the rear ankle in toe-off is far off;
+/// see the README). Neither goal is met; the test pins the measured state (IoU ≥ 0.835,
+/// median ≤ 0.12 m).
 #[test]
 fn real_frame_via_cli() {
     let (Some(depth), Some(mask), Some(skel)) = (
@@ -89,8 +90,8 @@ fn real_frame_via_cli() {
     errors.sort_by(f64::total_cmp);
     let median = 0.5 * (errors[2] + errors[3]);
     eprintln!("IoU {iou:.3}, person share {share:.3}, median error against the SDK {median:.3} m");
-    assert!(iou >= 0.83, "IoU {iou}");
-    assert!(median <= 0.16, "median {median} m");
+    assert!(iou >= 0.835, "IoU {iou}");
+    assert!(median <= 0.12, "median {median} m");
 
     // The mask PNG reads back (8-bit, 512x424) with as many person pixels as reported.
     let written =

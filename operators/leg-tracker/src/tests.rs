@@ -21,9 +21,17 @@ fn config_for(pose: &Isometry3<f64>) -> TrackerConfig {
     }
 }
 
+/// The median: the middle value, or the mean of the middle two of an even count.
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+    let n = v.len();
+    if n == 0 {
+        f64::NAN
+    } else if n.is_multiple_of(2) {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    } else {
+        v[n / 2]
+    }
 }
 
 /// Seconds after the lap's turn, where the simulated walker spins 180° within one sample (no
@@ -66,6 +74,10 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64) -> Vec<Score> {
         .unwrap();
         let mut tracker = LegTracker::new(config_for(&pose)).unwrap();
         let mut errors: [Vec<f64>; 3] = Default::default();
+        // The same split by the reported state, and the signed height error of each class.
+        let mut by_state: [[Vec<f64>; 3]; 2] = Default::default();
+        let mut height_err: [Vec<f64>; 3] = Default::default();
+        let up = pose.rotation.inverse() * nalgebra::Vector3::z();
         let (mut swaps, mut reported, mut tracked) = (0, 0, 0);
         for f in 0..frames {
             let t = f as f64 / RATE_HZ;
@@ -91,7 +103,10 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64) -> Vec<Score> {
                 let (gl, gr) = (rendered.joint(l).unwrap(), rendered.joint(r).unwrap());
                 for (tj, g) in [(tl_, gl), (tr, gr)] {
                     if tj.state != TrackingState::NotTracked {
-                        errors[class].push((tj.position_in_kinect - g).norm());
+                        let e = (tj.position_in_kinect - g).norm();
+                        errors[class].push(e);
+                        by_state[usize::from(tj.state == TrackingState::Inferred)][class].push(e);
+                        height_err[class].push(up.dot(&(tj.position_in_kinect - g)));
                         reported += 1;
                         if tj.state == TrackingState::Tracked {
                             tracked += 1;
@@ -125,6 +140,28 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64) -> Vec<Score> {
             rms[1],
             rms[2],
             frames * 6
+        );
+        let rms_of =
+            |e: &Vec<f64>| (e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64).sqrt();
+        for (st, name) in by_state.iter().zip(["tracked", "inferred"]) {
+            eprintln!(
+                "  {name}: n {} / {} / {}, RMS {:.3} / {:.3} / {:.3} m, > 10 cm {} / {} / {}",
+                st[0].len(),
+                st[1].len(),
+                st[2].len(),
+                rms_of(&st[0]),
+                rms_of(&st[1]),
+                rms_of(&st[2]),
+                st[0].iter().filter(|e| **e > 0.1).count(),
+                st[1].iter().filter(|e| **e > 0.1).count(),
+                st[2].iter().filter(|e| **e > 0.1).count(),
+            );
+        }
+        eprintln!(
+            "  median height error {:+.3} / {:+.3} / {:+.3} m",
+            median(height_err[0].clone()),
+            median(height_err[1].clone()),
+            median(height_err[2].clone())
         );
         scores.push(Score {
             sensor: sensor.id.clone(),
@@ -167,9 +204,10 @@ fn walker_on_the_thesis_rig() {
 /// centres from their markers), each there and back on the walkway of the thesis rig, 10 s.
 /// The goal is the walker's: ≤ 4 cm median per joint class on every sensor, no swap. It is
 /// not met. Measured (median hip / knee / ankle; swapped frames of 300): CMU 07_01 k1 3.8 / 3.7
-/// / 4.9 cm, 0; k2 3.9 / 3.1 / 3.8 cm, 8; k3 3.9 / 2.7 / 3.0 cm, 0. Rajagopal k1 4.6 / 5.2 / 5.2
-/// cm, 7; k2 4.6 / 4.4 / 4.4 cm, 1; k3 4.4 / 4.3 / 4.3 cm, 0. The test pins that state (≤ 6 cm,
-/// ≤ 15 swapped frames per sensor) and prints where the goal is missed.
+/// / 4.9 cm, 0; k2 3.9 / 3.1 / 3.8 cm, 8; k3 3.9 / 2.7 / 2.9 cm, 0. Rajagopal k1 4.6 / 5.2 / 5.1
+/// cm, 7; k2 4.6 / 4.4 / 4.4 cm, 1; k3 4.4 / 4.3 / 4.3 cm, 0. The renderer and the tracker are
+/// deterministic, so the test pins that state (≤ 5.5 cm, ≤ 8 swapped frames per sensor) and
+/// prints where the goal is missed.
 #[test]
 fn mocap_walks_through_the_renderer() {
     let files = [
@@ -186,14 +224,14 @@ fn mocap_walks_through_the_renderer() {
         for s in score_on_the_thesis_rig(&lap, 10.0) {
             for (m, what) in s.medians.iter().zip(["hip", "knee", "ankle"]) {
                 let line = format!("{file} {}: median {what} error {m:.3} m", s.sensor);
-                if *m > 0.06 {
+                if *m > 0.055 {
                     failures.push(line);
                 } else if *m > 0.04 {
                     missed.push(line);
                 }
             }
             let line = format!("{file} {}: {} swapped frames", s.sensor, s.swaps);
-            if s.swaps > 15 {
+            if s.swaps > 8 {
                 failures.push(line);
             } else if s.swaps > 0 {
                 missed.push(line);
@@ -213,12 +251,15 @@ fn mocap_walks_through_the_renderer() {
 /// The real Kinect v2 frame of a person in a room, against the SDK of the same instant.
 ///
 /// Measured: IoU 0.841 with the SDK's body index, whose mask also holds floor speckle around
-/// the feet that no depth segmentation should call the person; joints: knees and the front
-/// ankle 5–7 cm from the SDK's, hips 15–16 cm (the SDK puts them 12 cm lower than the
-/// stature-based hip joint centre, at 0.45 of the stature), the rear foot in toe-off 28 cm
-/// (its shank is taken by the front leg). The goals are IoU ≥ 0.85 and a median ≤ 8 cm; this
-/// test pins the measured state (IoU ≥ 0.83, median of the six ≤ 16 cm) so it cannot get
-/// worse unnoticed.
+/// the feet that no depth segmentation should call the person: 3416 of the 3517 pixels the
+/// masks disagree on are SDK pixels within 5 cm of the floor, and over the rest of the image
+/// the IoU is 0.995 (asserted ≥ 0.98); joints: knees and the front
+/// ankle 5–7 cm from the SDK's, hips 15–16 cm (the SDK's hips are 8–12 cm below the
+/// stature-based hip joint centre here, at 0.45–0.47 of the stature), the rear ankle in
+/// toe-off 28 cm (its shank is taken by the front leg; the SDK itself reports that ankle
+/// inferred). The median of the six (the mean of the middle two) is 0.111 m, as `trigait legs`
+/// reports it. The goals are IoU ≥ 0.85 and a median ≤ 8 cm; this test pins the measured
+/// state (IoU ≥ 0.835, median ≤ 0.12 m) so it cannot get worse unnoticed.
 #[test]
 fn real_frame_against_the_sdk() {
     let (Some(depth), Some(mask), Some(skel)) = (
@@ -248,6 +289,27 @@ fn real_frame_against_the_sdk() {
         union += usize::from(*a || *b);
     }
     let iou = inter as f64 / union as f64;
+    // The same over the pixels more than 5 cm above the tracker's floor (or without depth):
+    // what the two masks disagree on besides the floor.
+    let floor = out.floor.unwrap();
+    let camera = tracker.config().camera;
+    let (mut inter_up, mut union_up, mut floor_only) = (0, 0, 0);
+    for (i, (a, b)) in out.person_mask.iter().zip(truth.as_slice()).enumerate() {
+        let z = f64::from(frame.as_mm()[i]) * 1e-3;
+        let (rx, ry) = camera.ray(i % trigait_depth::WIDTH, i / trigait_depth::WIDTH);
+        if z > 0.0 && floor.height_m(&Point3::new(rx * z, ry * z, z)) < 0.05 {
+            floor_only += usize::from(*b && !*a);
+            continue;
+        }
+        inter_up += usize::from(*a && *b);
+        union_up += usize::from(*a || *b);
+    }
+    let iou_up = inter_up as f64 / union_up as f64;
+    eprintln!(
+        "IoU above the floor {iou_up:.3}; SDK person pixels within 5 cm of the floor that the tracker leaves out: {floor_only} of {}",
+        union - inter
+    );
+    assert!(iou_up >= 0.98, "IoU above the floor {iou_up:.3}");
     let mut errors = Vec::new();
     for j in Joint::LEGS {
         let (Some(t), Some(s)) = (out.joint(j), sdk[0].joints.iter().find(|s| s.joint == j)) else {
@@ -264,11 +326,11 @@ fn real_frame_against_the_sdk() {
         "IoU {iou:.3}, {} people, share {:.3}, floor {:?}, stature {:?}, lengths {:?}",
         out.people, out.person_share, out.floor, out.stature_m, out.segment_lengths_m
     );
-    assert!(iou >= 0.83, "IoU {iou:.3}");
+    assert!(iou >= 0.835, "IoU {iou:.3}");
     assert_eq!(errors.len(), 6, "joints found: {:?}", out.joints);
     let m = median(errors);
     eprintln!("median error against the SDK {m:.3} m");
-    assert!(m <= 0.16, "median {m:.3} m");
+    assert!(m <= 0.12, "median {m:.3} m");
 }
 
 fn thesis_k1() -> Isometry3<f64> {
