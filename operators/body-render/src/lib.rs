@@ -22,9 +22,11 @@
 //! z out of the lens; the column grows to the sensor's right, the row grows down); pixel (u, v)
 //! covers [u, u+1) × [v, v+1).
 //!
-//! Speed: the room is cast once per sensor; per frame only the pixels inside each ellipsoid's
-//! projected bounding square are tested, so a frame costs a few milliseconds on one core (see
-//! `benches/render.rs`).
+//! Speed: the room is cast once per sensor, with its time-of-flight σ and its depth
+//! discontinuities; per frame only the pixels inside each ellipsoid's silhouette box (from the
+//! tangent planes through the camera centre) are ray-tested, and only pixels on or next to the
+//! body are sensed from scratch, so a frame costs little more than one normal draw per pixel
+//! (see `benches/render.rs`; the tests hold the brute-force renderer as the reference).
 
 pub mod body;
 
@@ -160,6 +162,12 @@ pub struct Renderer {
     room_z: Vec<f64>,
     /// Incidence angle on the room per pixel, radians.
     room_incidence: Vec<f64>,
+    /// What the sensor makes of each room pixel, computed once.
+    room: Vec<RoomPixel>,
+    /// Scratch depth and incidence of the frame being rendered: the room, with the body
+    /// written over it and put back after each frame.
+    z: Vec<f64>,
+    incidence: Vec<f64>,
     rng: ChaCha8Rng,
 }
 
@@ -241,13 +249,36 @@ impl Renderer {
                 }
             }
         }
+        let grazing = trigait_kinect::MAX_INCIDENCE_RAD;
+        let room = (0..PIXELS)
+            .map(|i| {
+                let (z, inc) = (room_z[i], room_incidence[i]);
+                let far = neighbours_far(&room_z, i);
+                RoomPixel {
+                    z,
+                    sigma: if z.is_finite() && inc <= grazing {
+                        params.noise.tof_sigma_m(z, inc)
+                    } else {
+                        -1.0
+                    },
+                    edge_far: if far - z > params.edge_jump_m {
+                        far
+                    } else {
+                        f64::NAN
+                    },
+                }
+            })
+            .collect();
         Ok(Self {
             rng: ChaCha8Rng::seed_from_u64(params.seed),
             params,
             kinect_from_world: world_from_kinect.inverse(),
             rays,
+            z: room_z.clone(),
+            incidence: room_incidence.clone(),
             room_z,
             room_incidence,
+            room,
         })
     }
 
@@ -281,13 +312,23 @@ impl Renderer {
         bodies: &[Body],
         joints_in_kinect: Vec<(Joint, Point3<f64>)>,
     ) -> Rendered {
-        let mut z = self.room_z.clone();
-        let mut incidence = self.room_incidence.clone();
         let mut labels = vec![0_u8; PIXELS];
+        let mut z = std::mem::take(&mut self.z);
+        let mut incidence = std::mem::take(&mut self.incidence);
+        let mut drawn: Option<PixelBox> = None;
         for e in bodies.iter().flat_map(|b| &b.ellipsoids) {
-            self.cast(e, &mut z, &mut incidence, &mut labels);
+            if let Some(b) = self.cast(e, &mut z, &mut incidence, &mut labels) {
+                drawn = Some(drawn.map_or(b, |d| d.union(&b)));
+            }
         }
-        let depth = self.sense(&z, &incidence);
+        let depth = self.sense(&z, &incidence, &labels, drawn);
+        // Only body pixels were written over the room.
+        for (i, _) in labels.iter().enumerate().filter(|(_, l)| **l != 0) {
+            z[i] = self.room_z[i];
+            incidence[i] = self.room_incidence[i];
+        }
+        self.z = z;
+        self.incidence = incidence;
         Rendered {
             depth,
             labels,
@@ -295,13 +336,19 @@ impl Renderer {
         }
     }
 
-    /// Ray-casts one ellipsoid into the pixels of its projected bounding square.
-    fn cast(&self, e: &Ellipsoid, z: &mut [f64], incidence: &mut [f64], labels: &mut [u8]) {
-        let k = &self.params.intrinsics;
+    /// Ray-casts one ellipsoid into the pixels of its projected bounding box, which it returns
+    /// (`None`: too near the camera, not drawn).
+    fn cast(
+        &self,
+        e: &Ellipsoid,
+        z: &mut [f64],
+        incidence: &mut [f64],
+        labels: &mut [u8],
+    ) -> Option<PixelBox> {
         let c = self.kinect_from_world * e.centre;
         let r = e.bounding_radius_m();
         if c.z - r < 0.05 {
-            return;
+            return None;
         }
         // Quadratic form of the ellipsoid in camera space: (p − c)ᵀ A (p − c) = 1.
         let axes: Matrix3<f64> = self
@@ -312,17 +359,11 @@ impl Renderer {
             * e.axes;
         let inv_sq = Matrix3::from_diagonal(&e.semi_m.map(|s| 1.0 / (s * s)));
         let a_mat = axes * inv_sq * axes.transpose();
+        // Its inverse, the shape matrix: the ellipsoid's extent along n is √(nᵀ M n).
+        let m_mat = axes * Matrix3::from_diagonal(&e.semi_m.map(|s| s * s)) * axes.transpose();
         let ac = a_mat * c.coords;
         let c_term = c.coords.dot(&ac) - 1.0;
-        // Bounding square of the sphere's projection (conservative).
-        let near = c.z - r;
-        let half_u = k.fx * r / near + 1.0;
-        let half_v = k.fy * r / near + 1.0;
-        let cu = k.cx - k.fx * c.x / c.z;
-        let cv = k.cy - k.fy * c.y / c.z;
-        let clamp = |x: f64, hi: usize| x.max(0.0).min(hi as f64) as usize;
-        let (u0, u1) = (clamp(cu - half_u, WIDTH), clamp(cu + half_u + 1.0, WIDTH));
-        let (v0, v1) = (clamp(cv - half_v, HEIGHT), clamp(cv + half_v + 1.0, HEIGHT));
+        let ((u0, u1), (v0, v1)) = self.pixel_box(&c, r, &m_mat);
         for v in v0..v1 {
             for u in u0..u1 {
                 let i = v * WIDTH + u;
@@ -346,56 +387,235 @@ impl Renderer {
                 labels[i] = e.part.label();
             }
         }
+        Some(PixelBox { u0, u1, v0, v1 })
     }
 
-    /// Turns geometric depth into what the sensor reports.
-    fn sense(&mut self, z: &[f64], incidence: &[f64]) -> DepthFrame {
+    /// Columns and rows (half-open) whose pixel centres may see the ellipsoid centred at `c`
+    /// (camera space) with shape matrix `m` and bounding radius `r`, in front of the camera
+    /// (`c.z > r`): the tangent planes through the camera centre bound its silhouette
+    /// exactly, a pixel of margin absorbs rounding; the projected bounding sphere's square
+    /// where that has no solution.
+    fn pixel_box(
+        &self,
+        c: &Point3<f64>,
+        r: f64,
+        m: &Matrix3<f64>,
+    ) -> ((usize, usize), (usize, usize)) {
+        let k = &self.params.intrinsics;
+        // A plane x − q·z = 0 touches the ellipsoid where (cₓ − q c_z)² = M₀₀ − 2q M₀₂ + q² M₂₂:
+        // a quadratic in q (the ray slope x/z), whose roots bound the silhouette.
+        let slopes = |ca: f64, m_aa: f64, m_az: f64| {
+            let a = c.z * c.z - m[(2, 2)];
+            let b = ca * c.z - m_az;
+            let cc = ca * ca - m_aa;
+            let disc = b * b - a * cc;
+            (a > 0.0 && disc >= 0.0).then(|| {
+                let s = disc.sqrt();
+                ((b - s) / a, (b + s) / a)
+            })
+        };
+        let near = c.z - r;
+        let clamp = |x: f64, hi: usize| x.max(0.0).min(hi as f64) as usize;
+        // Pixel p's centre p + ½ is at cx − fx·q: centres strictly inside [lo, hi] in pixels.
+        let range = |centre: f64, f: f64, slopes: Option<(f64, f64)>, extent: f64, hi: usize| {
+            let (lo, up) = slopes.map_or_else(
+                || {
+                    let half = f * r / near + 1.0;
+                    (
+                        centre - f * extent / c.z - half,
+                        centre - f * extent / c.z + half,
+                    )
+                },
+                |(q_lo, q_hi)| (centre - f * q_hi - 0.5, centre - f * q_lo - 0.5),
+            );
+            (clamp((lo - 1.0).floor(), hi), clamp((up + 2.0).floor(), hi))
+        };
+        (
+            range(k.cx, k.fx, slopes(c.x, m[(0, 0)], m[(0, 2)]), c.x, WIDTH),
+            range(k.cy, k.fy, slopes(c.y, m[(1, 1)], m[(1, 2)]), c.y, HEIGHT),
+        )
+    }
+
+    /// Turns geometric depth into what the sensor reports. Pixels of the room away from the
+    /// body (outside `drawn`, the box of all body pixels, grown by one) take σ and the
+    /// discontinuity test from the table made once; the draws from the RNG, pixel by pixel
+    /// in row-major order, are the same as for the direct computation.
+    fn sense(
+        &mut self,
+        z: &[f64],
+        incidence: &[f64],
+        labels: &[u8],
+        drawn: Option<PixelBox>,
+    ) -> DepthFrame {
         let p = &self.params;
-        let (lo, hi) = (p.noise.min_depth_m, p.noise.max_depth_m);
+        let range = (p.noise.min_depth_m, p.noise.max_depth_m);
         let mut frame = DepthFrame::zeros();
         let out = frame.as_mm_mut();
         let grazing = trigait_kinect::MAX_INCIDENCE_RAD;
-        for i in 0..PIXELS {
-            let zi = z[i];
-            if !zi.is_finite() || incidence[i] > grazing {
-                continue;
-            }
-            let mut zm = zi;
-            if p.noisy {
-                // Depth along the axis scales with the range; the noise model is for the range.
-                let n: f64 = StandardNormal.sample(&mut self.rng);
-                zm += n * p.noise.tof_sigma_m(zi, incidence[i]);
-                // Discontinuity: the pixel on the near side mixes the two surfaces.
+        for v in 0..HEIGHT {
+            let row = v * WIDTH;
+            let (a, b) = match drawn {
+                Some(d) if v + 1 >= d.v0 && v <= d.v1 => {
+                    (row + d.u0.saturating_sub(1), row + (d.u1 + 1).min(WIDTH))
+                }
+                _ => (row + WIDTH, row + WIDTH),
+            };
+            sense_room(&self.room[row..a], &mut self.rng, p, &mut out[row..a]);
+            for i in a..b {
                 let (u, v) = (i % WIDTH, i / WIDTH);
-                let mut far = zi;
-                if u > 0 {
-                    far = far.max(z[i - 1]);
+                let body_near = labels[i] != 0
+                    || (u > 0 && labels[i - 1] != 0)
+                    || (u + 1 < WIDTH && labels[i + 1] != 0)
+                    || (v > 0 && labels[i - WIDTH] != 0)
+                    || (v + 1 < HEIGHT && labels[i + WIDTH] != 0);
+                if !body_near {
+                    sense_room(&self.room[i..=i], &mut self.rng, p, &mut out[i..=i]);
+                    continue;
                 }
-                if u + 1 < WIDTH {
-                    far = far.max(z[i + 1]);
+                let zi = z[i];
+                if !zi.is_finite() || incidence[i] > grazing {
+                    continue;
                 }
-                if v > 0 {
-                    far = far.max(z[i - WIDTH]);
-                }
-                if v + 1 < HEIGHT {
-                    far = far.max(z[i + WIDTH]);
-                }
-                if far - zi > p.edge_jump_m {
-                    let roll: f64 = self.rng.random();
-                    if roll < p.edge_dropout {
-                        continue;
+                let mut zm = zi;
+                if p.noisy {
+                    // Depth along the axis scales with the range; the noise model is for the
+                    // range.
+                    let n: f64 = StandardNormal.sample(&mut self.rng);
+                    zm += n * p.noise.tof_sigma_m(zi, incidence[i]);
+                    // Discontinuity: the pixel on the near side mixes the two surfaces.
+                    let far = neighbours_far(z, i);
+                    if far - zi > p.edge_jump_m {
+                        match edge_pixel(&mut self.rng, p, zi, far) {
+                            Edge::Dropped => continue,
+                            Edge::Flying(mixed) => zm = mixed,
+                            Edge::Kept => {}
+                        }
                     }
-                    if roll < p.edge_dropout + p.flying_pixels {
-                        let far = if far.is_finite() { far } else { zi + 1.0 };
-                        zm = zi + self.rng.random::<f64>() * (far - zi);
-                    }
                 }
+                out[i] = to_mm(zm, range);
             }
-            if (lo..=hi).contains(&zm) {
-                out[i] = (zm * 1000.0).round() as u16;
-            }
+            sense_room(
+                &self.room[b..row + WIDTH],
+                &mut self.rng,
+                p,
+                &mut out[b..row + WIDTH],
+            );
         }
         frame
+    }
+}
+
+/// One room pixel as the sensor sees it with no body in front.
+#[derive(Debug, Clone, Copy)]
+struct RoomPixel {
+    /// Depth, metres (∞: nothing).
+    z: f64,
+    /// Time-of-flight σ, metres; negative where the room returns nothing (no surface, or
+    /// grazing incidence).
+    sigma: f64,
+    /// The farthest 4-neighbour when the pixel is on the near side of a discontinuity (more
+    /// than `edge_jump_m` in front of it), NaN when it is not.
+    edge_far: f64,
+}
+
+/// Pixels `u0..u1` × `v0..v1`.
+#[derive(Debug, Clone, Copy)]
+struct PixelBox {
+    u0: usize,
+    u1: usize,
+    v0: usize,
+    v1: usize,
+}
+
+impl PixelBox {
+    fn union(&self, o: &Self) -> Self {
+        Self {
+            u0: self.u0.min(o.u0),
+            u1: self.u1.max(o.u1),
+            v0: self.v0.min(o.v0),
+            v1: self.v1.max(o.v1),
+        }
+    }
+}
+
+/// What the sensor reports for pixels of the room whose neighbours are room too.
+fn sense_room(room: &[RoomPixel], rng: &mut ChaCha8Rng, p: &RenderParams, out: &mut [u16]) {
+    let range = (p.noise.min_depth_m, p.noise.max_depth_m);
+    for (px, out) in room.iter().zip(out) {
+        if px.sigma < 0.0 {
+            continue;
+        }
+        let mut zm = px.z;
+        if p.noisy {
+            let n: f64 = StandardNormal.sample(rng);
+            zm += n * px.sigma;
+            if !px.edge_far.is_nan() {
+                match edge_pixel(rng, p, px.z, px.edge_far) {
+                    Edge::Dropped => continue,
+                    Edge::Flying(mixed) => zm = mixed,
+                    Edge::Kept => {}
+                }
+            }
+        }
+        *out = to_mm(zm, range);
+    }
+}
+
+/// Millimetres of a depth within `range` (metres), 0 outside it. Rounds half away from zero
+/// like `f64::round`, which for values of at least ½ is adding ½ and truncating (exactly:
+/// the sum can only round up to the integer it reaches), at a fraction of a libm call's cost.
+fn to_mm(z_m: f64, range: (f64, f64)) -> u16 {
+    if !(range.0..=range.1).contains(&z_m) {
+        return 0;
+    }
+    let mm = z_m * 1000.0;
+    if mm >= 0.5 {
+        (mm + 0.5) as u16
+    } else {
+        mm.round() as u16
+    }
+}
+
+/// The farthest depth among pixel `i` and its 4-neighbours.
+fn neighbours_far(z: &[f64], i: usize) -> f64 {
+    let (u, v) = (i % WIDTH, i / WIDTH);
+    let mut far = z[i];
+    if u > 0 {
+        far = far.max(z[i - 1]);
+    }
+    if u + 1 < WIDTH {
+        far = far.max(z[i + 1]);
+    }
+    if v > 0 {
+        far = far.max(z[i - WIDTH]);
+    }
+    if v + 1 < HEIGHT {
+        far = far.max(z[i + WIDTH]);
+    }
+    far
+}
+
+/// What a pixel on the near side of a discontinuity reads.
+enum Edge {
+    /// Nothing (edge dropout).
+    Dropped,
+    /// A depth between the two surfaces (a flying pixel).
+    Flying(f64),
+    /// Its own surface, with its noise.
+    Kept,
+}
+
+/// The pixel at depth `near` on the near side of a discontinuity to `far` (∞: nothing behind,
+/// then a metre behind it is mixed in).
+fn edge_pixel(rng: &mut ChaCha8Rng, p: &RenderParams, near: f64, far: f64) -> Edge {
+    let roll: f64 = rng.random();
+    if roll < p.edge_dropout {
+        Edge::Dropped
+    } else if roll < p.edge_dropout + p.flying_pixels {
+        let far = if far.is_finite() { far } else { near + 1.0 };
+        Edge::Flying(near + rng.random::<f64>() * (far - near))
+    } else {
+        Edge::Kept
     }
 }
 
