@@ -193,11 +193,7 @@ fn issue_6_depth_rrd_holds_the_maps() {
 }
 
 fn scratch(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("trigait-depth-graph-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::scratch_dir("depth-graph", name)
 }
 
 fn write_wall_frames(dir: &Path, frames: usize) {

@@ -5,31 +5,16 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
+
+mod common;
 
 fn trigait(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trigait"))
-        .arg("depth-metrics")
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "exit {:?}: {}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
+    common::trigait_cli("depth-metrics", args)
 }
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("trigait-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::scratch_dir("cli", name)
 }
 
 /// The ten Panoptic sensors with their calibration: per-sensor valid share, world floor plane
@@ -49,7 +34,7 @@ fn issue_6_panoptic_floor_heights_via_cli() {
         calib.to_str().unwrap(),
         "--json",
     ]);
-    let v = json(&out);
+    let v = common::stdout_json(&out);
     assert_eq!(v["mode"], "multi_sensor");
     let spread = v["floor_height_spread_m"].as_f64().unwrap();
     assert!(spread < 0.02, "spread {spread}");
@@ -105,7 +90,7 @@ fn issue_6_person_edge_band_via_cli() {
         return;
     };
     let out_dir = scratch("person");
-    let v = json(&trigait(&[
+    let v = common::stdout_json(&trigait(&[
         depth.to_str().unwrap(),
         "--mask",
         mask.to_str().unwrap(),

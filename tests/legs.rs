@@ -6,21 +6,16 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
+
+mod common;
 
 fn trigait(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trigait"))
-        .arg("legs")
-        .args(args)
-        .output()
-        .unwrap()
+    common::trigait_cli("legs", args)
 }
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("trigait-legs-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::scratch_dir("legs", name)
 }
 
 /// Frame 004378 with its SDK body-index mask: the person is tracked, the segmentation's IoU
@@ -51,13 +46,7 @@ fn real_frame_via_cli() {
         "--out",
         out_dir.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "exit {:?}: {}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let report = common::stdout_json(&out);
     let frame = &report["frames"][0];
     assert_eq!(frame["status"], "tracking", "{frame:#}");
     let iou = frame["iou"].as_f64().unwrap();

@@ -1,7 +1,8 @@
 //! Helpers shared by the whole-graph tests (`tests/dataflow.rs` and the graph tests of the
 //! filter, depth and multi-machine stages): locating the dora CLI and the venv's Python, building
 //! the node binaries once, running a graph headless in its own folder under
-//! `target/dataflow-tests/`, and reading its `summary.json` and `.rrd` back.
+//! `target/dataflow-tests/`, and reading its `summary.json` and `.rrd` back; and, for the CLI
+//! tests, running the built `trigait` and a scratch folder per test.
 //!
 //! Every test binary that runs graphs takes [`LOCK`] around a run, so graphs in one binary run
 //! one at a time and their latencies are not measured against each other (cargo runs the test
@@ -12,13 +13,41 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, Output, Stdio};
 use std::sync::{Mutex, OnceLock};
 
 use serde_json::Value;
 
 pub fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The built CLI run as `trigait <subcommand> <args…>`, its output captured.
+pub fn trigait_cli(subcommand: &str, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_trigait"))
+        .arg(subcommand)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// The JSON on a successful run's stdout; a failed run fails the test with its stderr.
+pub fn stdout_json(out: &Output) -> Value {
+    assert!(
+        out.status.success(),
+        "exit {:?}: {}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// An empty folder `trigait-<tag>-<pid>-<name>` in the temporary folder, for one test's files.
+pub fn scratch_dir(tag: &str, name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("trigait-{tag}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
 }
 
 /// The dora CLI: `.venv/bin/dora` when the test script made it, else `dora` on PATH.

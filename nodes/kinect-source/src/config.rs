@@ -250,6 +250,16 @@ fn replay_pace(
 }
 
 impl Config {
+    /// Whether `frames_sent` frames end the run (`STOP_AFTER_FRAMES`); says so in the log when
+    /// they do.
+    pub fn frame_limit_reached(&self, frames_sent: u64) -> bool {
+        let reached = self.stop_after_frames == Some(frames_sent);
+        if reached {
+            tracing::info!("stopping after {frames_sent} frames ({STOP_AFTER_FRAMES})");
+        }
+        reached
+    }
+
     /// From the process environment.
     pub fn from_env() -> eyre::Result<Self> {
         Self::from_lookup(|k| std::env::var(k).ok())

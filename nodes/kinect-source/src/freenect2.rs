@@ -45,7 +45,7 @@ use trigait_freenect2::capture::Degraded;
 use trigait_freenect2::capture::{Capture, CaptureConfig, Captured, Counters, Selector, State};
 use trigait_freenect2::{Driver, IrParams, Pipeline, Streams};
 use trigait_node_config::{env_flag, env_number_where, env_value};
-use trigait_schema::{Message, NtpExchange, SensorStatus, ports};
+use trigait_schema::{Message, SensorStatus, ports};
 
 use crate::backend::now_nanos;
 use crate::config::{self, Config};
@@ -271,7 +271,7 @@ pub fn run(
 ) -> eyre::Result<Summary> {
     let depth_out = DataId::from(ports::DEPTH.to_owned());
     let ir_out = DataId::from(IR.to_owned());
-    let ntp_out = DataId::from(ports::NTP_REPLY.to_owned());
+    let ntp = crate::ntp::Responder::new(&config.sensor_id);
     let status_out = DataId::from(ports::STATUS.to_owned());
     let mut status = StatusReport::new(&config.sensor_id, f2.status_every);
     let stop = Arc::new(AtomicBool::new(false));
@@ -330,12 +330,7 @@ pub fn run(
                     queue.taken();
                     sent?;
                     summary.frames_sent += 1;
-                    if config.stop_after_frames == Some(summary.frames_sent) {
-                        info!(
-                            "stopping after {} frames ({})",
-                            summary.frames_sent,
-                            config::STOP_AFTER_FRAMES
-                        );
+                    if config.frame_limit_reached(summary.frames_sent) {
                         return Ok(());
                     }
                 }
@@ -356,22 +351,17 @@ pub fn run(
                 Msg::Event(Event::Input { id, metadata, data }, t2)
                     if id.as_str() == ports::NTP_REQUEST =>
                 {
-                    let request = match NtpExchange::decode(data.as_array().as_ref()) {
-                        Ok(r) => r,
-                        Err(e) => {
-                            summary.malformed += 1;
-                            warn!("skipping a malformed ntp_request: {e}");
-                            continue;
-                        }
-                    };
-                    if request.sensor_id != config.sensor_id {
-                        continue;
-                    }
-                    let reply = request.answered(t2, now_nanos());
-                    let array = reply.encode().context("encoding the NTP reply")?;
-                    node.send_output(ntp_out.clone(), metadata.parameters, array)
-                        .context("kinect-source: sending ntp_reply")?;
-                    summary.ntp_answered += 1;
+                    ntp.answer(
+                        &mut node,
+                        metadata.parameters,
+                        data.as_array().as_ref(),
+                        t2,
+                        now_nanos,
+                        crate::ntp::NtpCounts {
+                            answered: &mut summary.ntp_answered,
+                            malformed: &mut summary.malformed,
+                        },
+                    )?;
                 }
                 Msg::Event(Event::Input { id, .. }, _) => {
                     warn!(input = id.as_str(), "ignoring an unknown input");
@@ -642,7 +632,7 @@ mod tests {
     use trigait_freenect2::capture::Degraded;
     use trigait_freenect2::fake::{FakeDriver, FakeKinect, Fault};
     use trigait_node_testing::{chain, init_node, lookup};
-    use trigait_schema::DepthFrameMessage;
+    use trigait_schema::{DepthFrameMessage, NtpExchange};
 
     use super::*;
 

@@ -10,6 +10,7 @@ mod body_depth;
 mod config;
 mod depth;
 mod freenect2;
+mod ntp;
 #[cfg(test)]
 mod tests;
 
@@ -19,7 +20,7 @@ use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{DoraNode, Event, EventStream, MetadataParameters, Parameter};
 use eyre::Context;
 use tracing::{info, warn};
-use trigait_schema::{GroundTruth, Message, NtpExchange, SkeletonFrameMessage, ports};
+use trigait_schema::{GroundTruth, Message, SkeletonFrameMessage, ports};
 
 use trigait_node_config::RigStamp;
 
@@ -59,7 +60,7 @@ pub fn run(
 ) -> eyre::Result<Counters> {
     let frame_out = DataId::from(ports::FRAME.to_owned());
     let truth_out = DataId::from(ports::GROUND_TRUTH.to_owned());
-    let ntp_out = DataId::from(ports::NTP_REPLY.to_owned());
+    let ntp = ntp::Responder::new(&config.sensor_id);
     let depth_out = DataId::from(ports::DEPTH.to_owned());
     let mut depth = config
         .depth
@@ -94,12 +95,7 @@ pub fn run(
                 );
                 return Ok(counters);
             }
-            if config.stop_after_frames == Some(counters.frames_sent) {
-                info!(
-                    "stopping after {} frames ({})",
-                    counters.frames_sent,
-                    config::STOP_AFTER_FRAMES
-                );
+            if config.frame_limit_reached(counters.frames_sent) {
                 return Ok(counters);
             }
         }
@@ -118,23 +114,20 @@ pub fn run(
             Event::Input { id, metadata, data } => match id.as_str() {
                 ports::NTP_REQUEST => {
                     let t2 = clock.local(now_nanos());
-                    let request = match NtpExchange::decode(data.as_array().as_ref()) {
-                        Ok(r) => r,
-                        Err(e) => {
-                            counters.malformed += 1;
-                            warn!("skipping a malformed ntp_request: {e}");
-                            continue;
-                        }
-                    };
-                    if request.sensor_id != config.sensor_id {
-                        continue;
-                    }
-                    source.receiver_ready(now_nanos());
-                    let reply = request.answered(t2, clock.local(now_nanos()));
-                    let array = reply.encode().context("encoding the NTP reply")?;
-                    node.send_output(ntp_out.clone(), metadata.parameters, array)
-                        .context("kinect-source: sending ntp_reply")?;
-                    counters.ntp_answered += 1;
+                    ntp.answer(
+                        &mut node,
+                        metadata.parameters,
+                        data.as_array().as_ref(),
+                        t2,
+                        || {
+                            source.receiver_ready(now_nanos());
+                            clock.local(now_nanos())
+                        },
+                        ntp::NtpCounts {
+                            answered: &mut counters.ntp_answered,
+                            malformed: &mut counters.malformed,
+                        },
+                    )?;
                 }
                 other => warn!(input = other, "ignoring an unknown input"),
             },

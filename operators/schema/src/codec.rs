@@ -13,7 +13,7 @@ use arrow_schema::{DataType, Field, FieldRef, Fields};
 use nalgebra::{Matrix3, Point3};
 use trigait_skeleton::{Joint, JointSample, TrackingState};
 
-use crate::{Error, Result};
+use crate::{Error, Message, Result};
 
 // ---- types --------------------------------------------------------------------------------
 
@@ -122,6 +122,16 @@ impl Builder {
         let values: Vec<&str> = values.into_iter().collect();
         Arc::new(StringArray::from_iter_values(values))
     }
+}
+
+/// [`Message::encode_many`] of a message that is one struct of `fields`: `columns` makes
+/// them with a builder that names the message in its errors.
+pub(crate) fn encode_struct<M: Message>(
+    fields: &Fields,
+    columns: impl FnOnce(&Builder) -> Result<Vec<ArrayRef>>,
+) -> Result<ArrayRef> {
+    let b = Builder { message: M::NAME };
+    b.structs(fields, columns(&b)?)
 }
 
 pub(crate) fn point_values(points: impl IntoIterator<Item = Point3<f64>>) -> Vec<f64> {
@@ -428,6 +438,17 @@ impl<'a> Rows<'a> {
             path,
         })
     }
+}
+
+/// [`Message::decode_many`] of a message that is one struct: `reader` fetches the columns
+/// once and returns the decoder of one row, which every row of `array` then goes through.
+pub(crate) fn decode_rows<'a, M: Message, R: Fn(usize) -> Result<M>>(
+    array: &'a dyn Array,
+    reader: impl FnOnce(&Rows<'a>) -> Result<R>,
+) -> Result<Vec<M>> {
+    let top = Rows::new(array, M::NAME)?;
+    let row = reader(&top)?;
+    top.rows().map(row).collect()
 }
 
 /// One column of [`Rows`], read cell by cell.

@@ -46,12 +46,84 @@ impl DepthFrameMessage {
     /// # Errors
     /// [`Error::BadLength`] on `depth_frame.depth_mm`.
     pub fn validate(&self) -> Result<()> {
+        self.image().check(Self::NAME, Self::PIXELS)
+    }
+}
+
+/// Implements [`Message`] and [`ImageMessage`] for `$ty`, a struct with the [`Image`] fields
+/// and its pixels in the field `$pixels`, as the message `$name` whose pixel column is named
+/// after that field.
+macro_rules! image_message {
+    ($ty:ident, $name:literal, $pixels:ident) => {
+        impl $crate::Message for $ty {
+            const NAME: &'static str = $name;
+
+            fn data_type() -> arrow_schema::DataType {
+                $crate::depth::image_data_type::<Self>()
+            }
+
+            fn encode_many(messages: &[Self]) -> $crate::Result<arrow_array::ArrayRef> {
+                $crate::depth::encode_images(messages)
+            }
+
+            fn decode_many(array: &dyn arrow_array::Array) -> $crate::Result<Vec<Self>> {
+                $crate::depth::decode_images(array)
+            }
+        }
+
+        impl $crate::depth::ImageMessage for $ty {
+            const PIXELS: &'static str = stringify!($pixels);
+
+            fn image(&self) -> $crate::depth::Image<&str, &[u16]> {
+                $crate::depth::Image {
+                    sensor_id: &self.sensor_id,
+                    seq: self.seq,
+                    local_stamp_nanos: self.local_stamp_nanos,
+                    width: self.width,
+                    height: self.height,
+                    pixels: &self.$pixels,
+                }
+            }
+
+            fn from_image(i: $crate::depth::Image<String, Vec<u16>>) -> Self {
+                $ty {
+                    sensor_id: i.sensor_id,
+                    seq: i.seq,
+                    local_stamp_nanos: i.local_stamp_nanos,
+                    width: i.width,
+                    height: i.height,
+                    $pixels: i.pixels,
+                }
+            }
+        }
+    };
+}
+pub(crate) use image_message;
+
+image_message!(DepthFrameMessage, "depth_frame", depth_mm);
+
+/// One 16-bit image of one sensor's stream, the layout `depth_frame` and `ir_frame` share
+/// (they differ in the name and meaning of the pixel column): `P` is the pixels, borrowed
+/// when encoding and owned when decoded, and so is `S`, the sensor id.
+pub(crate) struct Image<S, P> {
+    pub(crate) sensor_id: S,
+    pub(crate) seq: u64,
+    pub(crate) local_stamp_nanos: i64,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) pixels: P,
+}
+
+impl<S, P: AsRef<[u16]>> Image<S, P> {
+    /// Refuses a pixel count that is not `width × height`, or zero, naming
+    /// `<message>.<pixels>`.
+    fn check(&self, message: &str, pixels: &str) -> Result<()> {
         check_size(
-            Self::NAME,
-            "depth_mm",
+            message,
+            pixels,
             self.width,
             self.height,
-            self.depth_mm.len(),
+            self.pixels.as_ref().len(),
         )
     }
 }
@@ -69,21 +141,18 @@ fn check_size(message: &str, pixels: &str, width: u32, height: u32, found: usize
     Ok(())
 }
 
-/// One 16-bit image of one sensor's stream, the layout `depth_frame` and `ir_frame` share
-/// (they differ in the name and meaning of the pixel column).
-pub(crate) struct Image<'a> {
-    pub(crate) sensor_id: &'a str,
-    pub(crate) seq: u64,
-    pub(crate) local_stamp_nanos: i64,
-    pub(crate) width: u32,
-    pub(crate) height: u32,
-    pub(crate) pixels: &'a [u16],
+/// A message that is one [`Image`] under its own name and pixel column; its [`Message`]
+/// methods are [`image_data_type`], [`encode_images`] and [`decode_images`].
+pub(crate) trait ImageMessage: Message {
+    /// The pixel column (`depth_mm`, `amplitude`).
+    const PIXELS: &'static str;
+    /// The message as an image, borrowing its pixels.
+    fn image(&self) -> Image<&str, &[u16]>;
+    /// The message from a decoded image.
+    fn from_image(image: Image<String, Vec<u16>>) -> Self;
 }
 
-/// A decoded [`Image`].
-pub(crate) type OwnedImage = (String, u64, i64, u32, u32, Vec<u16>);
-
-pub(crate) fn image_fields(pixels: &str) -> Fields {
+fn image_fields(pixels: &str) -> Fields {
     Fields::from(vec![
         field("sensor_id", DataType::Utf8),
         field("seq", DataType::UInt64),
@@ -94,28 +163,30 @@ pub(crate) fn image_fields(pixels: &str) -> Fields {
     ])
 }
 
-pub(crate) fn encode_images(
-    message: &'static str,
-    pixels: &str,
-    images: &[Image<'_>],
-) -> Result<ArrayRef> {
+/// [`Message::data_type`] of an image message.
+pub(crate) fn image_data_type<M: ImageMessage>() -> DataType {
+    struct_of(image_fields(M::PIXELS))
+}
+
+/// [`Message::encode_many`] of an image message: a wrong pixel count is [`Error::Encode`].
+pub(crate) fn encode_images<M: ImageMessage>(messages: &[M]) -> Result<ArrayRef> {
+    let message = M::NAME;
     let b = Builder { message };
-    for m in images {
-        check_size(message, pixels, m.width, m.height, m.pixels.len()).map_err(|e| {
-            Error::Encode {
-                message,
-                detail: e.to_string(),
-            }
+    let images: Vec<Image<&str, &[u16]>> = messages.iter().map(M::image).collect();
+    for m in &images {
+        m.check(message, M::PIXELS).map_err(|e| Error::Encode {
+            message,
+            detail: e.to_string(),
         })?;
     }
     let lengths: Vec<usize> = images.iter().map(|m| m.pixels.len()).collect();
-    let values: ArrayRef = Arc::new(match images {
+    let values: ArrayRef = Arc::new(match images.as_slice() {
         // The common case (a node sends one frame): one copy into the Arrow buffer.
         [one] => UInt16Array::from(one.pixels.to_vec()),
         _ => UInt16Array::from_iter_values(images.iter().flat_map(|m| m.pixels.iter().copied())),
     });
     b.structs(
-        &image_fields(pixels),
+        &image_fields(M::PIXELS),
         vec![
             b.strings(images.iter().map(|m| m.sensor_id)),
             b.values::<UInt64Type>(images.iter().map(|m| m.seq)),
@@ -127,11 +198,10 @@ pub(crate) fn encode_images(
     )
 }
 
-pub(crate) fn decode_images(
-    array: &dyn Array,
-    message: &'static str,
-    pixels: &str,
-) -> Result<Vec<OwnedImage>> {
+/// [`Message::decode_many`] of an image message: a pixel count that is not `width × height`
+/// is [`Error::BadLength`], whatever the producer.
+pub(crate) fn decode_images<M: ImageMessage>(array: &dyn Array) -> Result<Vec<M>> {
+    let (message, pixels) = (M::NAME, M::PIXELS);
     let top = Rows::new(array, message)?;
     let sensors = top.column::<StringArray>("sensor_id")?;
     let seqs = top.column::<UInt64Array>("seq")?;
@@ -154,55 +224,16 @@ pub(crate) fn decode_images(
             }
             let (width, height) = (widths.get(row)?, heights.get(row)?);
             check_size(message, pixels, width, height, slice.len())?;
-            Ok((
-                sensors.get(row)?,
-                seqs.get(row)?,
-                stamps.get(row)?,
+            Ok(M::from_image(Image {
+                sensor_id: sensors.get(row)?,
+                seq: seqs.get(row)?,
+                local_stamp_nanos: stamps.get(row)?,
                 width,
                 height,
-                slice.values().to_vec(),
-            ))
+                pixels: slice.values().to_vec(),
+            }))
         })
         .collect()
-}
-
-impl Message for DepthFrameMessage {
-    const NAME: &'static str = "depth_frame";
-
-    fn data_type() -> DataType {
-        struct_of(image_fields("depth_mm"))
-    }
-
-    fn encode_many(messages: &[Self]) -> Result<ArrayRef> {
-        let images: Vec<Image<'_>> = messages
-            .iter()
-            .map(|m| Image {
-                sensor_id: &m.sensor_id,
-                seq: m.seq,
-                local_stamp_nanos: m.local_stamp_nanos,
-                width: m.width,
-                height: m.height,
-                pixels: &m.depth_mm,
-            })
-            .collect();
-        encode_images(Self::NAME, "depth_mm", &images)
-    }
-
-    fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        Ok(decode_images(array, Self::NAME, "depth_mm")?
-            .into_iter()
-            .map(
-                |(sensor_id, seq, local_stamp_nanos, width, height, depth_mm)| DepthFrameMessage {
-                    sensor_id,
-                    seq,
-                    local_stamp_nanos,
-                    width,
-                    height,
-                    depth_mm,
-                },
-            )
-            .collect())
-    }
 }
 
 #[cfg(test)]

@@ -10,12 +10,7 @@
 //! that is not `width × height` is refused); a message of its own keeps a consumer from
 //! reading amplitudes as millimetres.
 
-use arrow_array::{Array, ArrayRef};
-use arrow_schema::DataType;
-
-use crate::codec::struct_of;
-use crate::depth::{Image, decode_images, encode_images, image_fields};
-use crate::{Message, Result};
+use crate::depth::image_message;
 
 /// One IR amplitude image of one sensor.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -34,49 +29,12 @@ pub struct IrFrameMessage {
     pub amplitude: Vec<u16>,
 }
 
-impl Message for IrFrameMessage {
-    const NAME: &'static str = "ir_frame";
-
-    fn data_type() -> DataType {
-        struct_of(image_fields("amplitude"))
-    }
-
-    fn encode_many(messages: &[Self]) -> Result<ArrayRef> {
-        let images: Vec<Image<'_>> = messages
-            .iter()
-            .map(|m| Image {
-                sensor_id: &m.sensor_id,
-                seq: m.seq,
-                local_stamp_nanos: m.local_stamp_nanos,
-                width: m.width,
-                height: m.height,
-                pixels: &m.amplitude,
-            })
-            .collect();
-        encode_images(Self::NAME, "amplitude", &images)
-    }
-
-    fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        Ok(decode_images(array, Self::NAME, "amplitude")?
-            .into_iter()
-            .map(
-                |(sensor_id, seq, local_stamp_nanos, width, height, amplitude)| IrFrameMessage {
-                    sensor_id,
-                    seq,
-                    local_stamp_nanos,
-                    width,
-                    height,
-                    amplitude,
-                },
-            )
-            .collect())
-    }
-}
+image_message!(IrFrameMessage, "ir_frame", amplitude);
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{DepthFrameMessage, Error};
+    use crate::{DepthFrameMessage, Error, Message};
 
     /// A frame survives the round trip; a wrong pixel count is refused naming `ir_frame`; a
     /// depth frame is not an IR frame.

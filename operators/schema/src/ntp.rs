@@ -13,7 +13,7 @@ use arrow_array::{Array, ArrayRef, Int64Array, StringArray, UInt64Array};
 use arrow_schema::{DataType, Fields};
 use trigait_sync::NtpSample;
 
-use crate::codec::{Builder, Rows, field, nullable, struct_of};
+use crate::codec::{decode_rows, encode_struct, field, nullable, struct_of};
 use crate::{Message, Result};
 
 /// One NTP exchange in any of its three stages (request, reply, completed).
@@ -93,32 +93,27 @@ impl Message for NtpExchange {
     }
 
     fn encode_many(messages: &[Self]) -> Result<ArrayRef> {
-        let b = Builder {
-            message: Self::NAME,
-        };
-        b.structs(
-            &fields(),
-            vec![
+        encode_struct::<Self>(&fields(), |b| {
+            Ok(vec![
                 b.strings(messages.iter().map(|m| m.sensor_id.as_str())),
                 b.values::<UInt64Type>(messages.iter().map(|m| m.request_id)),
                 b.values::<Int64Type>(messages.iter().map(|m| m.t1_nanos)),
                 b.optionals::<Int64Type>(messages.iter().map(|m| m.t2_nanos)),
                 b.optionals::<Int64Type>(messages.iter().map(|m| m.t3_nanos)),
                 b.optionals::<Int64Type>(messages.iter().map(|m| m.t4_nanos)),
-            ],
-        )
+            ])
+        })
     }
 
     fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        let top = Rows::new(array, Self::NAME)?;
-        let sensor_ids = top.column::<StringArray>("sensor_id")?;
-        let ids = top.column::<UInt64Array>("request_id")?;
-        let t1 = top.column::<Int64Array>("t1_nanos")?;
-        let t2 = top.column::<Int64Array>("t2_nanos")?;
-        let t3 = top.column::<Int64Array>("t3_nanos")?;
-        let t4 = top.column::<Int64Array>("t4_nanos")?;
-        top.rows()
-            .map(|row| {
+        decode_rows(array, |top| {
+            let sensor_ids = top.column::<StringArray>("sensor_id")?;
+            let ids = top.column::<UInt64Array>("request_id")?;
+            let t1 = top.column::<Int64Array>("t1_nanos")?;
+            let t2 = top.column::<Int64Array>("t2_nanos")?;
+            let t3 = top.column::<Int64Array>("t3_nanos")?;
+            let t4 = top.column::<Int64Array>("t4_nanos")?;
+            Ok(move |row| {
                 Ok(NtpExchange {
                     sensor_id: sensor_ids.get(row)?,
                     request_id: ids.get(row)?,
@@ -128,6 +123,6 @@ impl Message for NtpExchange {
                     t4_nanos: t4.optional(row),
                 })
             })
-            .collect()
+        })
     }
 }

@@ -11,7 +11,7 @@ use arrow_array::types::{Int64Type, UInt64Type};
 use arrow_array::{Array, ArrayRef, Int64Array, StringArray, UInt64Array};
 use arrow_schema::{DataType, Fields};
 
-use crate::codec::{Builder, Rows, field, struct_of};
+use crate::codec::{decode_rows, encode_struct, field, struct_of};
 use crate::{Error, Message, Result};
 
 /// One sensor's device state at one instant.
@@ -91,32 +91,27 @@ impl Message for SensorStatus {
         for m in messages {
             m.validate()?;
         }
-        let b = Builder {
-            message: Self::NAME,
-        };
-        b.structs(
-            &fields(),
-            vec![
+        encode_struct::<Self>(&fields(), |b| {
+            Ok(vec![
                 b.strings(messages.iter().map(|m| m.sensor_id.as_str())),
                 b.values::<Int64Type>(messages.iter().map(|m| m.stamp_nanos)),
                 b.strings(messages.iter().map(|m| m.state.as_str())),
                 b.strings(messages.iter().map(|m| m.detail.as_str())),
                 b.values::<Int64Type>(messages.iter().map(|m| m.since_nanos)),
                 b.values::<UInt64Type>(messages.iter().map(|m| m.lost_frames)),
-            ],
-        )
+            ])
+        })
     }
 
     fn decode_many(array: &dyn Array) -> Result<Vec<Self>> {
-        let top = Rows::new(array, Self::NAME)?;
-        let sensors = top.column::<StringArray>("sensor_id")?;
-        let stamps = top.column::<Int64Array>("stamp_nanos")?;
-        let states = top.column::<StringArray>("state")?;
-        let details = top.column::<StringArray>("detail")?;
-        let since = top.column::<Int64Array>("since_nanos")?;
-        let lost = top.column::<UInt64Array>("lost_frames")?;
-        top.rows()
-            .map(|row| {
+        decode_rows(array, |top| {
+            let sensors = top.column::<StringArray>("sensor_id")?;
+            let stamps = top.column::<Int64Array>("stamp_nanos")?;
+            let states = top.column::<StringArray>("state")?;
+            let details = top.column::<StringArray>("detail")?;
+            let since = top.column::<Int64Array>("since_nanos")?;
+            let lost = top.column::<UInt64Array>("lost_frames")?;
+            Ok(move |row| {
                 let m = SensorStatus {
                     sensor_id: sensors.get(row)?,
                     stamp_nanos: stamps.get(row)?,
@@ -135,7 +130,7 @@ impl Message for SensorStatus {
                 }
                 Ok(m)
             })
-            .collect()
+        })
     }
 }
 
