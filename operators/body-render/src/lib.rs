@@ -350,41 +350,16 @@ impl Renderer {
         if c.z - r < 0.05 {
             return None;
         }
-        // Quadratic form of the ellipsoid in camera space: (p − c)ᵀ A (p − c) = 1.
-        let axes: Matrix3<f64> = self
-            .kinect_from_world
-            .rotation
-            .to_rotation_matrix()
-            .matrix()
-            * e.axes;
-        let inv_sq = Matrix3::from_diagonal(&e.semi_m.map(|s| 1.0 / (s * s)));
-        let a_mat = axes * inv_sq * axes.transpose();
-        // Its inverse, the shape matrix: the ellipsoid's extent along n is √(nᵀ M n).
-        let m_mat = axes * Matrix3::from_diagonal(&e.semi_m.map(|s| s * s)) * axes.transpose();
-        let ac = a_mat * c.coords;
-        let c_term = c.coords.dot(&ac) - 1.0;
-        let ((u0, u1), (v0, v1)) = self.pixel_box(&c, r, &m_mat);
+        let q = Quadric::new(&self.kinect_from_world, e);
+        let ((u0, u1), (v0, v1)) = self.pixel_box(&c, r, &q.m_mat);
         for v in v0..v1 {
             for u in u0..u1 {
                 let i = v * WIDTH + u;
-                let d = &self.rays[i];
-                let ad = a_mat * d;
-                let a = d.dot(&ad);
-                let b = -2.0 * ac.dot(d);
-                let disc = b * b - 4.0 * a * c_term;
-                if disc < 0.0 {
-                    continue;
+                if let Some((t, inc)) = q.hit(&self.rays[i], z[i]) {
+                    z[i] = t;
+                    incidence[i] = inc;
+                    labels[i] = e.part.label();
                 }
-                let t = (-b - disc.sqrt()) / (2.0 * a);
-                if t <= 0.0 || t >= z[i] {
-                    continue;
-                }
-                z[i] = t;
-                let normal = a_mat * (d * t - c.coords);
-                incidence[i] = (normal.dot(d).abs() / (normal.norm() * d.norm()))
-                    .clamp(0.0, 1.0)
-                    .acos();
-                labels[i] = e.part.label();
             }
         }
         Some(PixelBox { u0, u1, v0, v1 })
@@ -573,6 +548,56 @@ fn to_mm(z_m: f64, range: (f64, f64)) -> u16 {
         (mm + 0.5) as u16
     } else {
         mm.round() as u16
+    }
+}
+
+/// An ellipsoid in camera space as the quadric (p − c)ᵀ A (p − c) = 1, for intersecting the
+/// pixel rays with it.
+struct Quadric {
+    centre: Point3<f64>,
+    a_mat: Matrix3<f64>,
+    /// A's inverse, the shape matrix: the ellipsoid's extent along n is √(nᵀ M n).
+    m_mat: Matrix3<f64>,
+    ac: Vector3<f64>,
+    c_term: f64,
+}
+
+impl Quadric {
+    fn new(kinect_from_world: &Isometry3<f64>, e: &Ellipsoid) -> Self {
+        let centre = kinect_from_world * e.centre;
+        let axes: Matrix3<f64> = kinect_from_world.rotation.to_rotation_matrix().matrix() * e.axes;
+        let inv_sq = Matrix3::from_diagonal(&e.semi_m.map(|s| 1.0 / (s * s)));
+        let a_mat = axes * inv_sq * axes.transpose();
+        let m_mat = axes * Matrix3::from_diagonal(&e.semi_m.map(|s| s * s)) * axes.transpose();
+        let ac = a_mat * centre.coords;
+        let c_term = centre.coords.dot(&ac) - 1.0;
+        Self {
+            centre,
+            a_mat,
+            m_mat,
+            ac,
+            c_term,
+        }
+    }
+
+    /// The ray `d`'s first hit nearer than `nearer_than` (in units of the ray, metres of
+    /// depth for the renderer's rays), with its angle of incidence.
+    fn hit(&self, d: &Vector3<f64>, nearer_than: f64) -> Option<(f64, f64)> {
+        let a = d.dot(&(self.a_mat * d));
+        let b = -2.0 * self.ac.dot(d);
+        let disc = b * b - 4.0 * a * self.c_term;
+        if disc < 0.0 {
+            return None;
+        }
+        let t = (-b - disc.sqrt()) / (2.0 * a);
+        if t <= 0.0 || t >= nearer_than {
+            return None;
+        }
+        let normal = self.a_mat * (d * t - self.centre.coords);
+        let incidence = (normal.dot(d).abs() / (normal.norm() * d.norm()))
+            .clamp(0.0, 1.0)
+            .acos();
+        Some((t, incidence))
     }
 }
 

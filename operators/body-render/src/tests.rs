@@ -162,30 +162,13 @@ fn reference_render(r: &Renderer, rng: &mut ChaCha8Rng, bodies: &[Body]) -> (Vec
         if c.z - e.bounding_radius_m() < 0.05 {
             continue;
         }
-        let axes: Matrix3<f64> =
-            r.kinect_from_world.rotation.to_rotation_matrix().matrix() * e.axes;
-        let inv_sq = Matrix3::from_diagonal(&e.semi_m.map(|s| 1.0 / (s * s)));
-        let a_mat = axes * inv_sq * axes.transpose();
-        let ac = a_mat * c.coords;
-        let c_term = c.coords.dot(&ac) - 1.0;
+        let q = Quadric::new(&r.kinect_from_world, e);
         for i in 0..PIXELS {
-            let d = &r.rays[i];
-            let a = d.dot(&(a_mat * d));
-            let b = -2.0 * ac.dot(d);
-            let disc = b * b - 4.0 * a * c_term;
-            if disc < 0.0 {
-                continue;
+            if let Some((t, inc)) = q.hit(&r.rays[i], z[i]) {
+                z[i] = t;
+                incidence[i] = inc;
+                labels[i] = e.part.label();
             }
-            let t = (-b - disc.sqrt()) / (2.0 * a);
-            if t <= 0.0 || t >= z[i] {
-                continue;
-            }
-            z[i] = t;
-            let normal = a_mat * (d * t - c.coords);
-            incidence[i] = (normal.dot(d).abs() / (normal.norm() * d.norm()))
-                .clamp(0.0, 1.0)
-                .acos();
-            labels[i] = e.part.label();
         }
     }
     let mut out = vec![0_u16; PIXELS];
@@ -198,20 +181,7 @@ fn reference_render(r: &Renderer, rng: &mut ChaCha8Rng, bodies: &[Body]) -> (Vec
         if p.noisy {
             let n: f64 = StandardNormal.sample(rng);
             zm += n * p.noise.tof_sigma_m(zi, incidence[i]);
-            let (u, v) = (i % WIDTH, i / WIDTH);
-            let mut far = zi;
-            if u > 0 {
-                far = far.max(z[i - 1]);
-            }
-            if u + 1 < WIDTH {
-                far = far.max(z[i + 1]);
-            }
-            if v > 0 {
-                far = far.max(z[i - WIDTH]);
-            }
-            if v + 1 < HEIGHT {
-                far = far.max(z[i + WIDTH]);
-            }
+            let far = neighbours_far(&z, i);
             if far - zi > p.edge_jump_m {
                 let roll: f64 = rng.random();
                 if roll < p.edge_dropout {

@@ -35,17 +35,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         for rig in ["thesis", "ring-6"] {
             for &seed in &seeds {
-                let o = simulate(&Scenario {
-                    motion: motion.clone(),
-                    rig: rig.into(),
-                    perturb: (0.3, 20.0),
-                    from_data: false,
-                    lane_m: Some(1.0),
-                    laps: 3,
-                    turn_secs: 1.0,
-                    swap: None,
-                    seed,
-                })?;
+                let o = simulate(&Scenario::acceptance(&motion, rig, seed))?;
                 let worst = |f: fn(&trigait_calibration_sim::SensorScore) -> f64| {
                     o.scores.iter().map(f).fold(0.0, f64::max)
                 };

@@ -69,6 +69,24 @@ pub struct Scenario {
     pub seed: u64,
 }
 
+impl Scenario {
+    /// The acceptance walk: three out-and-back laps on lanes 1 m apart (1 s turns), from a
+    /// rough rig with every sensor moved 30 cm and turned 20°, no sensor swapped.
+    pub fn acceptance(motion: &str, rig: &str, seed: u64) -> Self {
+        Self {
+            motion: motion.to_owned(),
+            rig: rig.to_owned(),
+            perturb: (0.3, 20.0),
+            from_data: false,
+            lane_m: Some(1.0),
+            laps: 3,
+            turn_secs: 1.0,
+            swap: None,
+            seed,
+        }
+    }
+}
+
 /// How the calibrated rig compares with the truth.
 #[derive(Debug, Clone, Serialize)]
 pub struct SensorScore {

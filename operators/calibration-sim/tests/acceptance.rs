@@ -4,17 +4,7 @@ use trigait_calibration_sim::{Outcome, Scenario, rotation_angle, simulate};
 use trigait_rig::Rig;
 
 fn scenario(motion: &str, rig: &str) -> Scenario {
-    Scenario {
-        motion: motion.to_owned(),
-        rig: rig.to_owned(),
-        perturb: (0.3, 20.0),
-        from_data: false,
-        lane_m: Some(1.0),
-        laps: 3,
-        turn_secs: 1.0,
-        swap: None,
-        seed: 1,
-    }
+    Scenario::acceptance(motion, rig, 1)
 }
 
 /// Every pose within `tolerance_m` and 0.5° of the truth, the rig's own geometry (the
