@@ -358,3 +358,33 @@ pub(crate) fn fit_leg(
         shank_measured,
     })
 }
+
+/// Minimum points on the forefoot to place the `Foot` joint from them.
+const MIN_FOREFOOT_POINTS: usize = 10;
+
+/// The `Foot` joint (second metatarsal head) of a leg whose ankle is at `ankle`: `length` from
+/// the ankle towards the visible forefoot — the leg's points below the ankle, ahead of it along
+/// `forward` (horizontal, camera space) and between 0.6 and 1.4 `length` from it. The foot is
+/// rigid, so its pitch (flat, heel off, toe off, toe up at heel strike) is the direction of those
+/// points from the ankle. `None` when too few are seen.
+pub(crate) fn place_foot(
+    frame: &FloorFrame,
+    ankle: &Point3<f64>,
+    points: &[(Vector2<f64>, f64)],
+    forward: &Vector3<f64>,
+    length: f64,
+) -> Option<Point3<f64>> {
+    let (mut sum, mut n) = (Vector3::zeros(), 0_usize);
+    for (p, h) in points {
+        let d = frame.join(p, *h) - ankle;
+        let r = d.norm();
+        if forward.dot(&d) > 0.0
+            && frame.up.dot(&d) < 0.0
+            && (0.6 * length..1.4 * length).contains(&r)
+        {
+            sum += d;
+            n += 1;
+        }
+    }
+    (n >= MIN_FOREFOOT_POINTS).then(|| ankle + sum.normalize() * length)
+}

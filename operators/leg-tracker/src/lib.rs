@@ -37,7 +37,7 @@ use trigait_depth::{DepthFrame, HEIGHT, PIXELS, WIDTH};
 use trigait_kinect::Intrinsics;
 use trigait_skeleton::{Joint, JointSample, TrackingState};
 
-use legs::{BAND_M, Band, FitInput, FloorFrame, LegFit, LegPose, fit_leg};
+use legs::{BAND_M, Band, FitInput, FloorFrame, LegFit, LegPose, fit_leg, place_foot};
 pub use segment::Component;
 
 /// The depth camera as the tracker sees it.
@@ -183,6 +183,11 @@ pub struct TrackerConfig {
     pub hip_height_ratio: f64,
     /// Ankle joint centre above the sole over stature: 0.039 (Winter 2009, Fig. 4.1).
     pub ankle_height_ratio: f64,
+    /// Ankle joint centre to the `Foot` joint (the second metatarsal head, where the Kinect v2
+    /// puts it) over stature: 0.086. The metatarsal heads sit about 0.55 of the foot length
+    /// (0.152 H, Winter 2009, Fig. 4.1) ahead of the ankle (the ankle about 20 % and the heads
+    /// about 75 % of the foot from the heel), half the ankle height (0.039 H) lower.
+    pub foot_ratio: f64,
     /// Frames over which stature and segment lengths are measured before they are held.
     pub learning_frames: usize,
     /// A leg band needs this many points to count as seen.
@@ -217,6 +222,7 @@ impl Default for TrackerConfig {
             segment: SegmentParams::default(),
             hip_height_ratio: 0.52,
             ankle_height_ratio: 0.039,
+            foot_ratio: 0.086,
             learning_frames: 60,
             min_band_points: 6,
             tracked_share: 0.5,
@@ -344,6 +350,9 @@ const STILL_ANKLE_M: f64 = 0.015;
 /// exchanged lower legs must join up to be taken.
 const SWAP_MARGIN_M: f64 = 0.04;
 
+/// Points lower than this may be a foot (a swinging ankle stays below 0.3 m), metres.
+const FOOT_REGION_M: f64 = 0.35;
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -367,12 +376,16 @@ pub struct LegTracker {
     /// Index of the chain that is the left leg, once decided.
     left: Option<usize>,
     last_centroid: Option<Point3<f64>>,
+    /// The walking direction (horizontal, camera space) while the person walks.
+    forward: Option<Vector3<f64>>,
     pelvis_history: Vec<Point3<f64>>,
     frames: usize,
     statures: Vec<f64>,
     thighs: Vec<f64>,
     shanks: Vec<f64>,
     held: Option<(f64, (f64, f64))>,
+    #[cfg(test)]
+    debug: String,
 }
 
 fn median(v: &mut [f64]) -> Option<f64> {
@@ -392,6 +405,7 @@ impl LegTracker {
         for (name, v) in [
             ("hip_height_ratio", config.hip_height_ratio),
             ("ankle_height_ratio", config.ankle_height_ratio),
+            ("foot_ratio", config.foot_ratio),
         ] {
             if !(v > 0.0 && v < 1.0) {
                 return Err(Error::BadParameter {
@@ -422,12 +436,15 @@ impl LegTracker {
             legs: None,
             left: None,
             last_centroid: None,
+            forward: None,
             pelvis_history: Vec::new(),
             frames: 0,
             statures: Vec::new(),
             thighs: Vec::new(),
             shanks: Vec::new(),
             held: None,
+            #[cfg(test)]
+            debug: String::new(),
         })
     }
 
@@ -442,11 +459,14 @@ impl LegTracker {
         self.left = None;
         self.legs = None;
         self.last_centroid = None;
+        self.forward = None;
         self.pelvis_history.clear();
     }
 
     /// Tracks one frame.
     pub fn track(&mut self, frame: &DepthFrame) -> TrackedFrame {
+        #[cfg(test)]
+        self.debug.clear();
         let mut cloud = segment::back_project(frame, &self.config.camera, &self.rays);
         if cloud.valid == 0 {
             self.lose();
@@ -583,10 +603,15 @@ impl LegTracker {
             vec![Band::default(); n_bands],
             vec![Band::default(); n_bands],
         ];
+        // Each leg's points low enough to be its foot, for the `Foot` joint.
+        let mut low: [Vec<(Vector2<f64>, f64)>; 2] = [Vec::new(), Vec::new()];
         for (p, h) in &pts {
             if let Some(k) = assign(p, *h) {
                 let b = ((h / BAND_M).floor().max(0.0) as usize).min(n_bands - 1);
                 bands[k][b].add(p, *h);
+                if *h < FOOT_REGION_M {
+                    low[k].push((*p, *h));
+                }
             }
         }
         let min_pts = self.config.min_band_points as f64;
@@ -656,11 +681,31 @@ impl LegTracker {
             let (lo0, lo1) = swapped.split_at_mut(1);
             lo0[0][..split].swap_with_slice(&mut lo1[0][..split]);
             let (alt, alt_floor) = fit_both(&swapped);
+            #[cfg(test)]
+            {
+                self.debug = format!(
+                    "gaps {:.3}+{:.3} alt {:?} floor {:?}",
+                    a.knee_gap_m,
+                    b.knee_gap_m,
+                    alt.iter()
+                        .map(|f| f.map(|f| (f.knee_gap_m * 1000.0).round()))
+                        .collect::<Vec<_>>(),
+                    on_floor_legs
+                );
+            }
             if let [Some(c), Some(d)] = &alt
                 && c.knee_gap_m + d.knee_gap_m + SWAP_MARGIN_M < a.knee_gap_m + b.knee_gap_m
             {
                 fits = alt;
                 on_floor_legs = alt_floor;
+                let below = split as f64 * BAND_M;
+                let [l0, l1] = &mut low;
+                let (keep0, move0): (Vec<_>, Vec<_>) = l0.iter().partition(|p| p.1 >= below);
+                let (keep1, move1): (Vec<_>, Vec<_>) = l1.iter().partition(|p| p.1 >= below);
+                *l0 = keep0.into_iter().chain(move1).collect();
+                *l1 = keep1.into_iter().chain(move0).collect();
+                #[cfg(test)]
+                self.debug.push_str(" EXCHANGED");
             }
         }
         if self.held.is_none() {
@@ -770,7 +815,22 @@ impl LegTracker {
             emit(hip_j, t.pose.hip, thigh);
             emit(knee_j, t.pose.knee, thigh.min(shank));
             emit(ankle_j, t.pose.ankle, shank);
-            if let Some(foot) = fits[chain].and_then(|f| f.foot) {
+            // The foot points forward: along the walking direction, or standing, from the
+            // ankle towards the centre of the foot's points.
+            let forward = self.forward.or_else(|| {
+                let d = fits[chain].and_then(|f| f.foot)? - t.pose.ankle;
+                (d - ff.up * ff.up.dot(&d)).try_normalize(1e-6)
+            });
+            if fits[chain].is_some()
+                && let Some(forward) = forward
+                && let Some(foot) = place_foot(
+                    &ff,
+                    &t.pose.ankle,
+                    &low[chain],
+                    &forward,
+                    self.config.foot_ratio * stature,
+                )
+            {
                 emit(foot_j, foot, shank);
             }
         }
@@ -863,6 +923,9 @@ impl LegTracker {
         if forward.norm() < 0.03 {
             return;
         }
+        if by_motion {
+            self.forward = Some(forward.normalize());
+        }
         let lateral = ff.up.cross(&forward.normalize());
         let d = lateral.dot(&(tracks[0].pose.hip - tracks[1].pose.hip));
         if d.abs() > 0.03 {
@@ -921,3 +984,6 @@ fn two_means(
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod diag;
