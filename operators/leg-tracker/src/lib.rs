@@ -353,6 +353,9 @@ const SWAP_MARGIN_M: f64 = 0.04;
 /// Points lower than this may be a foot (a swinging ankle stays below 0.3 m), metres.
 const FOOT_REGION_M: f64 = 0.35;
 
+/// Predicted leg axes nearer than this at some height below the knees cross there, metres.
+const CROSSING_M: f64 = 0.08;
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -673,29 +676,51 @@ impl LegTracker {
         // Where the legs pass each other the lower legs may have gone to the wrong chains: a
         // leg's thigh and shank lines meet at its knee, a thigh and the other leg's shank do
         // not. Try the lower legs exchanged below the predicted knees and keep what joins up.
+        // The assignment to the nearer predicted axis flips where the two predicted axes
+        // cross, so a wrong prediction (lower legs crossed) mixes the lower legs below that
+        // height: try the exchange below the crossing too.
         if let (Some(pred), [Some(a), Some(b)]) = (predicted, &fits) {
             let knee_h =
                 0.5 * (ff.split(&pred[0].knee.coords).1 + ff.split(&pred[1].knee.coords).1);
-            let split = ((knee_h / BAND_M).floor().max(0.0) as usize).min(n_bands);
-            let mut swapped = bands.clone();
-            let (lo0, lo1) = swapped.split_at_mut(1);
-            lo0[0][..split].swap_with_slice(&mut lo1[0][..split]);
-            let (alt, alt_floor) = fit_both(&swapped);
+            let knee_split = ((knee_h / BAND_M).floor().max(0.0) as usize).min(n_bands);
+            let mut splits = vec![knee_split];
+            if let Some(cross) = (1..knee_split)
+                .map(|k| {
+                    let h = (k as f64 + 0.5) * BAND_M;
+                    (
+                        k,
+                        (pred[0].axis_at(&ff, h) - pred[1].axis_at(&ff, h)).norm(),
+                    )
+                })
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .filter(|(k, d)| *d < CROSSING_M && k + 2 <= knee_split)
+            {
+                splits.push(cross.0);
+            }
+            let mut best_gap = a.knee_gap_m + b.knee_gap_m - SWAP_MARGIN_M;
+            let mut taken = None;
+            for split in splits {
+                let mut swapped = bands.clone();
+                let (lo0, lo1) = swapped.split_at_mut(1);
+                lo0[0][..split].swap_with_slice(&mut lo1[0][..split]);
+                let (alt, alt_floor) = fit_both(&swapped);
+                if let [Some(c), Some(d)] = &alt
+                    && c.knee_gap_m + d.knee_gap_m < best_gap
+                {
+                    best_gap = c.knee_gap_m + d.knee_gap_m;
+                    taken = Some((split, alt, alt_floor));
+                }
+            }
             #[cfg(test)]
             {
                 self.debug = format!(
-                    "gaps {:.3}+{:.3} alt {:?} floor {:?}",
+                    "gaps {:.3}+{:.3} taken {:?}",
                     a.knee_gap_m,
                     b.knee_gap_m,
-                    alt.iter()
-                        .map(|f| f.map(|f| (f.knee_gap_m * 1000.0).round()))
-                        .collect::<Vec<_>>(),
-                    on_floor_legs
+                    taken.as_ref().map(|t| (t.0, knee_split, best_gap)),
                 );
             }
-            if let [Some(c), Some(d)] = &alt
-                && c.knee_gap_m + d.knee_gap_m + SWAP_MARGIN_M < a.knee_gap_m + b.knee_gap_m
-            {
+            if let Some((split, alt, alt_floor)) = taken {
                 fits = alt;
                 on_floor_legs = alt_floor;
                 let below = split as f64 * BAND_M;
@@ -704,8 +729,6 @@ impl LegTracker {
                 let (keep1, move1): (Vec<_>, Vec<_>) = l1.iter().partition(|p| p.1 >= below);
                 *l0 = keep0.into_iter().chain(move1).collect();
                 *l1 = keep1.into_iter().chain(move0).collect();
-                #[cfg(test)]
-                self.debug.push_str(" EXCHANGED");
             }
         }
         if self.held.is_none() {
