@@ -363,10 +363,10 @@ pub(crate) fn fit_leg(
 const MIN_FOREFOOT_POINTS: usize = 10;
 
 /// The `Foot` joint (second metatarsal head) of a leg whose ankle is at `ankle`: `length` from
-/// the ankle towards the visible forefoot — the leg's points below the ankle, ahead of it along
-/// `forward` (horizontal, camera space) and between 0.6 and 1.4 `length` from it. The foot is
-/// rigid, so its pitch (flat, heel off, toe off, toe up at heel strike) is the direction of those
-/// points from the ankle. `None` when too few are seen.
+/// the ankle along `forward` (horizontal, camera space: the foot points where the person walks),
+/// pitched towards the visible forefoot — the leg's points below the ankle, ahead of it and
+/// between 0.6 and 1.4 `length` from it. The foot is rigid, so its pitch (flat, heel off, toe
+/// off) is the direction of those points from the ankle. `None` when too few are seen.
 pub(crate) fn place_foot(
     frame: &FloorFrame,
     ankle: &Point3<f64>,
@@ -386,5 +386,10 @@ pub(crate) fn place_foot(
             n += 1;
         }
     }
-    (n >= MIN_FOREFOOT_POINTS).then(|| ankle + sum.normalize() * length)
+    // Their mean lies off the foot's long axis, towards the sensor (only the near side of the
+    // foot is seen): the foot points along `forward`, pitched as they are.
+    let along = forward * forward.dot(&sum) + frame.up * frame.up.dot(&sum);
+    (n >= MIN_FOREFOOT_POINTS)
+        .then(|| along.try_normalize(1e-9).map(|d| ankle + d * length))
+        .flatten()
 }

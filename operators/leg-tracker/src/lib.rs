@@ -17,7 +17,11 @@
 //!    the knee is the breakpoint of a two-line fit to the limb's axis; the ankle sits above the
 //!    sole. During the first frames the tracker measures the stature and the thigh and shank
 //!    lengths; then it holds them and places the knee and ankle at those distances along the
-//!    fitted lines.
+//!    fitted lines. Where the lower legs pass each other they may land on the wrong chains; the
+//!    exchange that makes thigh and shank lines meet at the knees is tried below the predicted
+//!    knees and below the height where the predicted axes cross. The `Foot` joint (second
+//!    metatarsal head) is an anthropometric distance ahead of the ankle along the walking
+//!    direction, pitched towards the leg's visible forefoot.
 //! 4. **Sides.** Which chain is the left leg follows from the walking direction (the hips'
 //!    motion, or the feet, which point forward): left = up × forward. Decided once, then held.
 //!
@@ -387,8 +391,6 @@ pub struct LegTracker {
     thighs: Vec<f64>,
     shanks: Vec<f64>,
     held: Option<(f64, (f64, f64))>,
-    #[cfg(test)]
-    debug: String,
 }
 
 fn median(v: &mut [f64]) -> Option<f64> {
@@ -446,8 +448,6 @@ impl LegTracker {
             thighs: Vec::new(),
             shanks: Vec::new(),
             held: None,
-            #[cfg(test)]
-            debug: String::new(),
         })
     }
 
@@ -468,8 +468,6 @@ impl LegTracker {
 
     /// Tracks one frame.
     pub fn track(&mut self, frame: &DepthFrame) -> TrackedFrame {
-        #[cfg(test)]
-        self.debug.clear();
         let mut cloud = segment::back_project(frame, &self.config.camera, &self.rays);
         if cloud.valid == 0 {
             self.lose();
@@ -710,15 +708,6 @@ impl LegTracker {
                     best_gap = c.knee_gap_m + d.knee_gap_m;
                     taken = Some((split, alt, alt_floor));
                 }
-            }
-            #[cfg(test)]
-            {
-                self.debug = format!(
-                    "gaps {:.3}+{:.3} taken {:?}",
-                    a.knee_gap_m,
-                    b.knee_gap_m,
-                    taken.as_ref().map(|t| (t.0, knee_split, best_gap)),
-                );
             }
             if let Some((split, alt, alt_floor)) = taken {
                 fits = alt;
