@@ -34,8 +34,10 @@ fn rms(v: &[f64]) -> f64 {
 /// 4 cm, ankles 8–11 cm, feet 5–8 cm) — against 0.02 m for the skeleton-level graph. Before the
 /// `Foot` joint was placed at the forefoot and the lower-leg exchange tried below the crossing
 /// of the predicted axes: 0.106 m plain, 0.100 m robust (ankles 9–13 cm, feet 15–17 cm). The gap
-/// to the skeleton graph is the tracker's ankles and feet, not the host. Pinned: robust no worse
-/// than plain, hips and knees ≤ 6 cm, ankles ≤ 12 cm, feet ≤ 10 cm, all ≤ 0.07 m.
+/// to the skeleton graph is the tracker's ankles and feet, not the host, and most of it is in the
+/// 0.35 s after each of the lap's instant turns: there 8 % of the joints, RMS 0.18–0.19 m;
+/// elsewhere 0.039 m plain, 0.036 m robust. Pinned: robust no worse than plain, hips and knees
+/// ≤ 6 cm, ankles ≤ 12 cm, feet ≤ 10 cm, all ≤ 0.07 m, away from the turns ≤ 0.045 m.
 #[test]
 fn tracked_depth_fused_from_all_three_sensors() {
     let rig = Rig::builtin("thesis").unwrap();
@@ -95,6 +97,9 @@ fn tracked_depth_fused_from_all_three_sensors() {
     for robust in [false, true] {
         let params = Params::new(Method::Fusion).with_robust(robust);
         let mut errors: BTreeMap<Joint, Vec<f64>> = BTreeMap::new();
+        // The same split at the lap's turns, where the simulated walker spins 180° within one
+        // sample and the tracker's sides follow 0.2 s later (no real body turns like that).
+        let (mut after_turn, mut walking) = (Vec::new(), Vec::new());
         for f in RATE_HZ as usize..frames {
             let samples: Vec<SensorSamples<'_>> = rig
                 .sensors
@@ -107,12 +112,16 @@ fn tracked_depth_fused_from_all_three_sensors() {
                 })
                 .collect();
             let (fused, _) = fuse_instant(&fusion, &samples, &params);
+            let turning = t_of(f) % (lap.duration_secs() / 2.0) < 0.35;
             for (j, jf) in &fused.joints {
                 if let Ok(e) = &jf.result {
-                    errors
-                        .entry(*j)
-                        .or_default()
-                        .push((e.position - truth[f][j]).norm());
+                    let error = (e.position - truth[f][j]).norm();
+                    errors.entry(*j).or_default().push(error);
+                    if turning {
+                        after_turn.push(error);
+                    } else {
+                        walking.push(error);
+                    }
                 }
             }
         }
@@ -127,6 +136,13 @@ fn tracked_depth_fused_from_all_three_sensors() {
             rms(&all),
             all.len(),
             per_joint.join(", ")
+        );
+        eprintln!(
+            "  in the 0.35 s after a turn: {} joints, RMS {:.4} m; elsewhere {} joints, RMS {:.4} m",
+            after_turn.len(),
+            rms(&after_turn),
+            walking.len(),
+            rms(&walking)
         );
         assert!(all.len() > (frames - 30) * 6, "{} joints fused", all.len());
         for j in [
@@ -150,6 +166,11 @@ fn tracked_depth_fused_from_all_three_sensors() {
                 assert!(e <= bound, "{j:?}: RMS {e:.3} m");
             }
         }
+        assert!(
+            rms(&walking) <= 0.045,
+            "RMS away from the turns {:.3} m",
+            rms(&walking)
+        );
         results.push(rms(&all));
     }
     assert!(results[1] <= results[0] * 1.01, "robust {results:?}");
