@@ -358,3 +358,38 @@ pub(crate) fn fit_leg(
         shank_measured,
     })
 }
+
+/// Minimum points on the forefoot to place the `Foot` joint from them.
+const MIN_FOREFOOT_POINTS: usize = 10;
+
+/// The `Foot` joint (second metatarsal head) of a leg whose ankle is at `ankle`: `length` from
+/// the ankle along `forward` (horizontal, camera space: the foot points where the person walks),
+/// pitched towards the visible forefoot — the leg's points below the ankle, ahead of it and
+/// between 0.6 and 1.4 `length` from it. The foot is rigid, so its pitch (flat, heel off, toe
+/// off) is the direction of those points from the ankle. `None` when too few are seen.
+pub(crate) fn place_foot(
+    frame: &FloorFrame,
+    ankle: &Point3<f64>,
+    points: &[(Vector2<f64>, f64)],
+    forward: &Vector3<f64>,
+    length: f64,
+) -> Option<Point3<f64>> {
+    let (mut sum, mut n) = (Vector3::zeros(), 0_usize);
+    for (p, h) in points {
+        let d = frame.join(p, *h) - ankle;
+        let r = d.norm();
+        if forward.dot(&d) > 0.0
+            && frame.up.dot(&d) < 0.0
+            && (0.6 * length..1.4 * length).contains(&r)
+        {
+            sum += d;
+            n += 1;
+        }
+    }
+    // Their mean lies off the foot's long axis, towards the sensor (only the near side of the
+    // foot is seen): the foot points along `forward`, pitched as they are.
+    let along = forward * forward.dot(&sum) + frame.up * frame.up.dot(&sum);
+    (n >= MIN_FOREFOOT_POINTS)
+        .then(|| along.try_normalize(1e-9).map(|d| ankle + d * length))
+        .flatten()
+}

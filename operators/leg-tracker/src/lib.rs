@@ -17,7 +17,11 @@
 //!    the knee is the breakpoint of a two-line fit to the limb's axis; the ankle sits above the
 //!    sole. During the first frames the tracker measures the stature and the thigh and shank
 //!    lengths; then it holds them and places the knee and ankle at those distances along the
-//!    fitted lines.
+//!    fitted lines. Where the lower legs pass each other they may land on the wrong chains; the
+//!    exchange that makes thigh and shank lines meet at the knees is tried below the predicted
+//!    knees and below the height where the predicted axes cross. The `Foot` joint (second
+//!    metatarsal head) is an anthropometric distance ahead of the ankle along the walking
+//!    direction, pitched towards the leg's visible forefoot.
 //! 4. **Sides.** Which chain is the left leg follows from the walking direction (the hips'
 //!    motion, or the feet, which point forward): left = up × forward. Decided once, then held.
 //!
@@ -37,7 +41,7 @@ use trigait_depth::{DepthFrame, HEIGHT, PIXELS, WIDTH};
 use trigait_kinect::Intrinsics;
 use trigait_skeleton::{Joint, JointSample, TrackingState};
 
-use legs::{BAND_M, Band, FitInput, FloorFrame, LegFit, LegPose, fit_leg};
+use legs::{BAND_M, Band, FitInput, FloorFrame, LegFit, LegPose, fit_leg, place_foot};
 pub use segment::Component;
 
 /// The depth camera as the tracker sees it.
@@ -183,6 +187,11 @@ pub struct TrackerConfig {
     pub hip_height_ratio: f64,
     /// Ankle joint centre above the sole over stature: 0.039 (Winter 2009, Fig. 4.1).
     pub ankle_height_ratio: f64,
+    /// Ankle joint centre to the `Foot` joint (the second metatarsal head, where the Kinect v2
+    /// puts it) over stature: 0.086. The metatarsal heads sit about 0.55 of the foot length
+    /// (0.152 H, Winter 2009, Fig. 4.1) ahead of the ankle (the ankle about 20 % and the heads
+    /// about 75 % of the foot from the heel), half the ankle height (0.039 H) lower.
+    pub foot_ratio: f64,
     /// Frames over which stature and segment lengths are measured before they are held.
     pub learning_frames: usize,
     /// A leg band needs this many points to count as seen.
@@ -217,6 +226,7 @@ impl Default for TrackerConfig {
             segment: SegmentParams::default(),
             hip_height_ratio: 0.52,
             ankle_height_ratio: 0.039,
+            foot_ratio: 0.086,
             learning_frames: 60,
             min_band_points: 6,
             tracked_share: 0.5,
@@ -344,6 +354,12 @@ const STILL_ANKLE_M: f64 = 0.015;
 /// exchanged lower legs must join up to be taken.
 const SWAP_MARGIN_M: f64 = 0.04;
 
+/// Points lower than this may be a foot (a swinging ankle stays below 0.3 m), metres.
+const FOOT_REGION_M: f64 = 0.35;
+
+/// Predicted leg axes nearer than this at some height below the knees cross there, metres.
+const CROSSING_M: f64 = 0.08;
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -367,6 +383,8 @@ pub struct LegTracker {
     /// Index of the chain that is the left leg, once decided.
     left: Option<usize>,
     last_centroid: Option<Point3<f64>>,
+    /// The walking direction (horizontal, camera space) while the person walks.
+    forward: Option<Vector3<f64>>,
     pelvis_history: Vec<Point3<f64>>,
     frames: usize,
     statures: Vec<f64>,
@@ -392,6 +410,7 @@ impl LegTracker {
         for (name, v) in [
             ("hip_height_ratio", config.hip_height_ratio),
             ("ankle_height_ratio", config.ankle_height_ratio),
+            ("foot_ratio", config.foot_ratio),
         ] {
             if !(v > 0.0 && v < 1.0) {
                 return Err(Error::BadParameter {
@@ -422,6 +441,7 @@ impl LegTracker {
             legs: None,
             left: None,
             last_centroid: None,
+            forward: None,
             pelvis_history: Vec::new(),
             frames: 0,
             statures: Vec::new(),
@@ -442,6 +462,7 @@ impl LegTracker {
         self.left = None;
         self.legs = None;
         self.last_centroid = None;
+        self.forward = None;
         self.pelvis_history.clear();
     }
 
@@ -583,10 +604,15 @@ impl LegTracker {
             vec![Band::default(); n_bands],
             vec![Band::default(); n_bands],
         ];
+        // Each leg's points low enough to be its foot, for the `Foot` joint.
+        let mut low: [Vec<(Vector2<f64>, f64)>; 2] = [Vec::new(), Vec::new()];
         for (p, h) in &pts {
             if let Some(k) = assign(p, *h) {
                 let b = ((h / BAND_M).floor().max(0.0) as usize).min(n_bands - 1);
                 bands[k][b].add(p, *h);
+                if *h < FOOT_REGION_M {
+                    low[k].push((*p, *h));
+                }
             }
         }
         let min_pts = self.config.min_band_points as f64;
@@ -648,19 +674,50 @@ impl LegTracker {
         // Where the legs pass each other the lower legs may have gone to the wrong chains: a
         // leg's thigh and shank lines meet at its knee, a thigh and the other leg's shank do
         // not. Try the lower legs exchanged below the predicted knees and keep what joins up.
+        // The assignment to the nearer predicted axis flips where the two predicted axes
+        // cross, so a wrong prediction (lower legs crossed) mixes the lower legs below that
+        // height: try the exchange below the crossing too.
         if let (Some(pred), [Some(a), Some(b)]) = (predicted, &fits) {
             let knee_h =
                 0.5 * (ff.split(&pred[0].knee.coords).1 + ff.split(&pred[1].knee.coords).1);
-            let split = ((knee_h / BAND_M).floor().max(0.0) as usize).min(n_bands);
-            let mut swapped = bands.clone();
-            let (lo0, lo1) = swapped.split_at_mut(1);
-            lo0[0][..split].swap_with_slice(&mut lo1[0][..split]);
-            let (alt, alt_floor) = fit_both(&swapped);
-            if let [Some(c), Some(d)] = &alt
-                && c.knee_gap_m + d.knee_gap_m + SWAP_MARGIN_M < a.knee_gap_m + b.knee_gap_m
+            let knee_split = ((knee_h / BAND_M).floor().max(0.0) as usize).min(n_bands);
+            let mut splits = vec![knee_split];
+            if let Some(cross) = (1..knee_split)
+                .map(|k| {
+                    let h = (k as f64 + 0.5) * BAND_M;
+                    (
+                        k,
+                        (pred[0].axis_at(&ff, h) - pred[1].axis_at(&ff, h)).norm(),
+                    )
+                })
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .filter(|(k, d)| *d < CROSSING_M && k + 2 <= knee_split)
             {
+                splits.push(cross.0);
+            }
+            let mut best_gap = a.knee_gap_m + b.knee_gap_m - SWAP_MARGIN_M;
+            let mut taken = None;
+            for split in splits {
+                let mut swapped = bands.clone();
+                let (lo0, lo1) = swapped.split_at_mut(1);
+                lo0[0][..split].swap_with_slice(&mut lo1[0][..split]);
+                let (alt, alt_floor) = fit_both(&swapped);
+                if let [Some(c), Some(d)] = &alt
+                    && c.knee_gap_m + d.knee_gap_m < best_gap
+                {
+                    best_gap = c.knee_gap_m + d.knee_gap_m;
+                    taken = Some((split, alt, alt_floor));
+                }
+            }
+            if let Some((split, alt, alt_floor)) = taken {
                 fits = alt;
                 on_floor_legs = alt_floor;
+                let below = split as f64 * BAND_M;
+                let [l0, l1] = &mut low;
+                let (keep0, move0): (Vec<_>, Vec<_>) = l0.iter().partition(|p| p.1 >= below);
+                let (keep1, move1): (Vec<_>, Vec<_>) = l1.iter().partition(|p| p.1 >= below);
+                *l0 = keep0.into_iter().chain(move1).collect();
+                *l1 = keep1.into_iter().chain(move0).collect();
             }
         }
         if self.held.is_none() {
@@ -770,7 +827,22 @@ impl LegTracker {
             emit(hip_j, t.pose.hip, thigh);
             emit(knee_j, t.pose.knee, thigh.min(shank));
             emit(ankle_j, t.pose.ankle, shank);
-            if let Some(foot) = fits[chain].and_then(|f| f.foot) {
+            // The foot points forward: along the walking direction, or standing, from the
+            // ankle towards the centre of the foot's points.
+            let forward = self.forward.or_else(|| {
+                let d = fits[chain].and_then(|f| f.foot)? - t.pose.ankle;
+                (d - ff.up * ff.up.dot(&d)).try_normalize(1e-6)
+            });
+            if fits[chain].is_some()
+                && let Some(forward) = forward
+                && let Some(foot) = place_foot(
+                    &ff,
+                    &t.pose.ankle,
+                    &low[chain],
+                    &forward,
+                    self.config.foot_ratio * stature,
+                )
+            {
                 emit(foot_j, foot, shank);
             }
         }
@@ -863,6 +935,9 @@ impl LegTracker {
         if forward.norm() < 0.03 {
             return;
         }
+        if by_motion {
+            self.forward = Some(forward.normalize());
+        }
         let lateral = ff.up.cross(&forward.normalize());
         let d = lateral.dot(&(tracks[0].pose.hip - tracks[1].pose.hip));
         if d.abs() > 0.03 {
@@ -921,3 +996,6 @@ fn two_means(
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod diag;

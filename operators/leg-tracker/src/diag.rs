@@ -1,0 +1,234 @@
+//! Where the ankle and foot errors come from: every leg of every frame put in one cause class
+//! (the 0.35 s after the simulated lap's instant turn; the ankle nearer the other leg's truth,
+//! both chains on one leg or the lower legs crossed; reported inferred; its lower leg less than
+//! half visible, by the pixels it shows against a render without the other leg; the ankles
+//! less than 8 cm apart across the view; partly hidden; seen whole, still or moving), with
+//! each class's share of the summed squared error and its mean error along up, the view, across
+//! the view and the foot's forward direction. Run by hand:
+//! `cargo test --release -p trigait-leg-tracker -- --ignored where_ankle_and_foot_errors --nocapture`.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{Point3, Vector3};
+use trigait_body_render::{Body, BodyShape, Part, RenderParams, Renderer, Room};
+use trigait_motion::{WalkerParams, there_and_back, walker};
+use trigait_rig::Rig;
+use trigait_skeleton::{Joint, MotionClip, TrackingState};
+
+use super::*;
+
+#[derive(Default)]
+struct Class {
+    n: usize,
+    sse: f64,
+    up: f64,
+    depth: f64,
+    lateral: f64,
+    forward: f64,
+    over10: usize,
+}
+
+impl Class {
+    fn add(
+        &mut self,
+        e: &Vector3<f64>,
+        up: &Vector3<f64>,
+        view: &Vector3<f64>,
+        fwd: &Vector3<f64>,
+    ) {
+        self.n += 1;
+        self.sse += e.norm_squared();
+        self.up += up.dot(e);
+        let h = e - up * up.dot(e);
+        self.depth += view.dot(&h);
+        self.lateral += up.cross(view).dot(&h);
+        self.forward += fwd.dot(&h);
+        self.over10 += usize::from(e.norm() > 0.1);
+    }
+}
+
+fn visible(labels: &[u8], parts: &[Part]) -> usize {
+    let ls: Vec<u8> = parts.iter().map(|p| p.label()).collect();
+    labels.iter().filter(|l| ls.contains(l)).count()
+}
+
+fn run(
+    lap: &MotionClip,
+    secs: f64,
+    table: &mut BTreeMap<String, [BTreeMap<&'static str, Class>; 2]>,
+) {
+    let rig = Rig::builtin("thesis").unwrap();
+    let frames = (secs * 30.0) as usize;
+    let shape = BodyShape::default();
+    for sensor in &rig.sensors {
+        let pose = sensor.world_from_kinect;
+        let mut renderer = Renderer::new(
+            RenderParams {
+                seed: 7,
+                ..RenderParams::default()
+            },
+            &pose,
+            &Room::default(),
+        )
+        .unwrap();
+        let mut alone = Renderer::new(RenderParams::default(), &pose, &Room::default()).unwrap();
+        let mut tracker = LegTracker::new(TrackerConfig {
+            floor: Floor::from_pose(&pose),
+            ..TrackerConfig::default()
+        })
+        .unwrap();
+        let up = pose.rotation.inverse() * Vector3::z();
+        let key = format!("{} {}", lap.name(), sensor.id);
+        let entry = table.entry(key.clone()).or_default();
+        let mut last_truth: Option<[Point3<f64>; 2]> = None;
+        for f in 0..frames {
+            let t = (f as f64 / 30.0) % lap.duration_secs();
+            let rendered = renderer
+                .render_pose(&shape, |j| lap.position_at(j, t))
+                .unwrap();
+            let out = tracker.track(&rendered.depth);
+            let body = Body::from_joints(&shape, |j| lap.position_at(j, t)).unwrap();
+            let sides = [
+                (
+                    Joint::AnkleLeft,
+                    Joint::FootLeft,
+                    Joint::KneeLeft,
+                    [Part::ShankLeft, Part::FootLeft],
+                    [Part::ThighRight, Part::ShankRight, Part::FootRight],
+                ),
+                (
+                    Joint::AnkleRight,
+                    Joint::FootRight,
+                    Joint::KneeRight,
+                    [Part::ShankRight, Part::FootRight],
+                    [Part::ThighLeft, Part::ShankLeft, Part::FootLeft],
+                ),
+            ];
+            let truth_ankles = [
+                rendered.joint(Joint::AnkleLeft).unwrap(),
+                rendered.joint(Joint::AnkleRight).unwrap(),
+            ];
+            for (s, (aj, fj, _kj, mine, other)) in sides.iter().enumerate() {
+                if f < 60 {
+                    continue;
+                }
+                let only = Body {
+                    ellipsoids: body
+                        .ellipsoids
+                        .iter()
+                        .filter(|e| !other.contains(&e.part))
+                        .copied()
+                        .collect(),
+                };
+                let solo = alone.render_bodies(&[only], Vec::new());
+                let vis_alone = visible(&solo.labels, mine);
+                let vis = visible(&rendered.labels, mine);
+                let share = if vis_alone == 0 {
+                    0.0
+                } else {
+                    vis as f64 / vis_alone as f64
+                };
+                let ta = truth_ankles[s];
+                let to = truth_ankles[1 - s];
+                let tf = rendered.joint(*fj).unwrap();
+                let dx = (ta.x - to.x).abs();
+                let speed = last_truth.map_or(0.0, |l| (ta - l[s]).norm() * 30.0);
+                let view = {
+                    let v = ta.coords - up * up.dot(&ta.coords);
+                    v.normalize()
+                };
+                let fwd = {
+                    let v = tf - ta;
+                    (v - up * up.dot(&v)).try_normalize(1e-6).unwrap_or(view)
+                };
+                let Some(a) = out.joint(*aj) else { continue };
+                if a.state == TrackingState::NotTracked {
+                    continue;
+                }
+                let e = a.position_in_kinect - ta;
+                let e_other = (a.position_in_kinect - to).norm();
+                let other_out = out.joint(sides[1 - s].0).map(|o| o.position_in_kinect);
+                let both_same = other_out.is_some_and(|o| (o - a.position_in_kinect).norm() < 0.06);
+                let half = lap.duration_secs() / 2.0;
+                let class = if (t % half) < 0.35 {
+                    "0 after the lap's instant turn"
+                } else if e_other + 0.03 < e.norm() && e.norm() > 0.08 && both_same {
+                    "a1 wrong leg, same"
+                } else if e_other + 0.03 < e.norm() && e.norm() > 0.08 {
+                    "a2 wrong leg, crossed"
+                } else if a.state == TrackingState::Inferred {
+                    "b inferred"
+                } else if share < 0.5 {
+                    "c hidden <50%"
+                } else if dx < 0.08 {
+                    "d overlap dx<8cm"
+                } else if share < 0.9 {
+                    "e partial 50-90%"
+                } else if speed < 0.45 {
+                    "f clear still"
+                } else {
+                    "g clear moving"
+                };
+                entry[0].entry(class).or_default().add(&e, &up, &view, &fwd);
+                if let Some(ft) = out.joint(*fj) {
+                    let ef = ft.position_in_kinect - tf;
+                    entry[1]
+                        .entry(class)
+                        .or_default()
+                        .add(&ef, &up, &view, &fwd);
+                }
+            }
+            last_truth = Some(truth_ankles);
+        }
+    }
+}
+
+#[test]
+#[ignore = "diagnostic, prints a table"]
+fn where_ankle_and_foot_errors_come_from() {
+    let mut clips = vec![
+        there_and_back(
+            &walker(&WalkerParams::default(), 3.0, 100.0)
+                .unwrap()
+                .placed_on_walkway(),
+        )
+        .unwrap(),
+    ];
+    for file in [
+        "mocap-cmu-07_01/07_01.c3d",
+        "mocap-opensim-rajagopal-walk/Rajagopal__motion_capture_walk.trc",
+    ] {
+        if let Some(path) = trigait_test_data::shared_file(file) {
+            let clip = trigait_motion::load_motion(&path).unwrap();
+            clips.push(there_and_back(&clip.placed_on_walkway()).unwrap());
+        }
+    }
+    let mut table = BTreeMap::new();
+    for c in &clips {
+        run(c, 10.0, &mut table);
+    }
+    for (key, [ankle, foot]) in &table {
+        for (what, t) in [("ankle", ankle), ("foot", foot)] {
+            let total: f64 = t.values().map(|c| c.sse).sum();
+            let n: usize = t.values().map(|c| c.n).sum();
+            eprintln!(
+                "{key} {what}: n {n} RMS {:.3}",
+                (total / n.max(1) as f64).sqrt()
+            );
+            for (name, c) in t {
+                let k = c.n.max(1) as f64;
+                eprintln!(
+                    "   {name:18} n {:4} RMS {:.3} share of SSE {:4.1}% >10cm {:3}  mean up {:+.3} depth {:+.3} lat {:+.3} fwd {:+.3}",
+                    c.n,
+                    (c.sse / k).sqrt(),
+                    100.0 * c.sse / total,
+                    c.over10,
+                    c.up / k,
+                    c.depth / k,
+                    c.lateral / k,
+                    c.forward / k
+                );
+            }
+        }
+    }
+}
