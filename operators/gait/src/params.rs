@@ -652,7 +652,8 @@ const HEEL_STANCE_LOW_SECS: f64 = 0.3;
 const HEEL_LANDING_SEARCH_SECS: f64 = 0.12;
 
 /// Where the heel marker of `foot` lands after the candidate at `frame`: `(frame, seen)`, with
-/// `seen` false when it had already landed at the first frame searched (no landing observed).
+/// `seen` true when the heel was still swinging at the first frame searched (moving
+/// horizontally faster than [`HEEL_SLIDING_MPS`]), so that the whole landing was observed.
 /// `None` when no landing is found within [`HEEL_LANDING_SEARCH_SECS`].
 fn heel_landing(tracks: &Tracks, foot: Foot, frame: f64, on_belt: bool) -> Option<(f64, bool)> {
     let rate = tracks.rate_hz;
@@ -680,6 +681,7 @@ fn heel_landing(tracks: &Tracks, foot: Foot, frame: f64, on_belt: bool) -> Optio
         HEEL_LANDED_MPS
     };
     let landed = |s: (f64, f64)| s.0 <= limit && s.1 <= HEEL_SLIDING_MPS;
+    let swinging = state(start)?.1 > HEEL_SLIDING_MPS;
     let mut previous: Option<(f64, f64)> = None;
     for f in start..=start + search {
         let s = state(f)?;
@@ -696,7 +698,7 @@ fn heel_landing(tracks: &Tracks, foot: Foot, frame: f64, on_belt: bool) -> Optio
                 }
             };
             let frac = cross(q.0, s.0, limit).max(cross(q.1, s.1, HEEL_SLIDING_MPS));
-            return Some(((f - 1) as f64 + frac, true));
+            return Some(((f - 1) as f64 + frac, swinging));
         }
         previous = Some(s);
     }
@@ -733,9 +735,11 @@ fn heel_landing(tracks: &Tracks, foot: Foot, frame: f64, on_belt: bool) -> Optio
 /// also how Bonci et al. (2022) detect contacts.
 ///
 /// Linear interpolation between frames of the condition met last; without a landing the
-/// candidate stays. An edge candidate is kept only if the heel is seen to land after it (not
-/// already landed at the first frame searched). Skeleton ankles are too noisy in height for
-/// this and keep the coordinate-method instant.
+/// candidate stays. An edge candidate is kept only if the heel is seen to land after it: still
+/// swinging (faster than [`HEEL_SLIDING_MPS`]) at the first frame searched, and landed within
+/// the search. A heel at rest that settles by a millimetre as the recording begins (the CGM2
+/// walk's left heel, 0.06 m/s down at 0.03 m/s forward) is no landing seen. Skeleton ankles
+/// are too noisy in height for this and keep the coordinate-method instant.
 fn refine_heel_strikes(
     tracks: &Tracks,
     events: &mut Vec<GaitEvent>,

@@ -586,19 +586,14 @@ fn treadmill_declared_matches_detected() {
     );
 }
 
-/// The treadmill recording cut to start at each frame of its first 0.75 s: a heel strike found
-/// in the first 0.6 s is a plate contact (within 20 ms), never the first frame of a clip that
-/// starts with a heel on the belt; and a plate contact that comes 30 ms to 0.5 s after the cut
-/// is found (the heel is then seen coming down).
-#[test]
-fn treadmill_clip_start() {
-    let folder = "mocap-gaitalytics-treadmill-walk";
-    let Some(text) = source(folder) else { return };
-    let Some(path) = trigait_test_data::shared_file(&format!("{folder}/treadmill_events.c3d"))
-    else {
-        return;
+/// `folder/file` cut to start at each frame of its first 0.75 s: a heel strike found in the
+/// first 0.6 s is a plate contact (within 20 ms), never the first frames of a clip that starts
+/// with a heel on the floor; and a plate contact that comes 30 ms to 0.5 s after the cut is
+/// found (the heel is then seen coming down).
+fn clip_start(folder: &str, file: &str, plates: &[Reference]) -> Vec<String> {
+    let Some(path) = trigait_test_data::shared_file(&format!("{folder}/{file}")) else {
+        return Vec::new();
     };
-    let plates = plate_events(section(&text, "Force-plate events", &["* = contact"]));
     let l = landmarks(&trigait_motion::read_markers(&path).unwrap());
     let mut failures = Vec::new();
     for from in 0..75 {
@@ -610,7 +605,8 @@ fn treadmill_clip_start() {
             heel_source: l.heel_source,
         };
         let start = from as f64 / l.rate_hz;
-        let analysis = analyse_landmarks(&cut, &GaitParams::default()).unwrap();
+        let analysis = analyse_landmarks(&cut, &GaitParams::default())
+            .unwrap_or_else(|e| panic!("{file} cut at {start:.2} s: {e}"));
         let strikes: Vec<(Foot, f64)> = analysis
             .events
             .iter()
@@ -622,7 +618,7 @@ fn treadmill_clip_start() {
                 r.kind == EventKind::HeelStrike && r.foot == *foot && (r.time - t).abs() <= 0.02
             }) {
                 failures.push(format!(
-                    "cut at {start:.2} s: {} heel strike at {t:.3} s is no plate contact",
+                    "{file} cut at {start:.2} s: {} heel strike at {t:.3} s is no plate contact",
                     foot.name()
                 ));
             }
@@ -635,12 +631,31 @@ fn treadmill_clip_start() {
                 .any(|(f, t)| *f == r.foot && (r.time - t).abs() <= 0.02)
             {
                 failures.push(format!(
-                    "cut at {start:.2} s: {} plate contact at {:.3} s not found",
+                    "{file} cut at {start:.2} s: {} plate contact at {:.3} s not found",
                     r.foot.name(),
                     r.time
                 ));
             }
         }
     }
-    report(failures);
+    failures
+}
+
+/// The treadmill recording starts 52 ms before a right contact, with the left foot on the belt.
+#[test]
+fn treadmill_clip_start() {
+    let folder = "mocap-gaitalytics-treadmill-walk";
+    let Some(text) = source(folder) else { return };
+    let plates = plate_events(section(&text, "Force-plate events", &["* = contact"]));
+    report(clip_start(folder, "treadmill_events.c3d", &plates));
+}
+
+/// The CGM2 walk starts with the left heel at rest (settling by 1 mm) and the right one 0.14 s
+/// before its contact.
+#[test]
+fn ktk_clip_start() {
+    let folder = "mocap-ktk-cgm2-walk-4fp";
+    let Some(text) = source(folder) else { return };
+    let plates = plate_events(section(&text, "Force-plate events", &["Lab-labelled"]));
+    report(clip_start(folder, "walk.c3d", &plates));
 }
