@@ -756,7 +756,7 @@ fn refine_heel_strikes(
         .iter_mut()
         .filter(|e| e.kind == EventKind::HeelStrike)
     {
-        if let Some((frame, true)) = heel_landing(tracks, e.foot, e.frame, on_belt) {
+        if let Some((frame, _)) = heel_landing(tracks, e.foot, e.frame, on_belt) {
             moved(e, frame);
         }
     }
