@@ -293,16 +293,7 @@ fn coordinate_events(
     params: &EventParams,
     events: &mut Vec<GaitEvent>,
 ) {
-    let d = segment.direction();
-    let relative = |track: &[Option<nalgebra::Point3<f64>>]| -> Vec<Option<f64>> {
-        (segment.first_frame..=segment.last_frame)
-            .map(|f| {
-                let p = track.get(f).copied().flatten()?;
-                let pelvis = tracks.pelvis.get(f).copied().flatten()?;
-                Some(horizontal(&(p - pelvis)).dot(&d))
-            })
-            .collect()
-    };
+    let relative = |track| relative_to_pelvis(tracks, segment, track);
     let separation = params.min_separation_secs * tracks.rate_hz;
     let first = segment.first_frame as f64;
     // Each gap-free run on its own: a peak next to a bridged gap is not known to be one.
@@ -323,6 +314,72 @@ fn coordinate_events(
             }
         }
     }
+}
+
+/// `track` minus the pelvis, horizontal, along the segment's walking direction, for each frame
+/// of the segment (`None` where either is missing).
+fn relative_to_pelvis(
+    tracks: &Tracks,
+    segment: &WalkingSegment,
+    track: &[Option<nalgebra::Point3<f64>>],
+) -> Vec<Option<f64>> {
+    let d = segment.direction();
+    (segment.first_frame..=segment.last_frame)
+        .map(|f| {
+            let p = track.get(f).copied().flatten()?;
+            let pelvis = tracks.pelvis.get(f).copied().flatten()?;
+            Some(horizontal(&(p - pelvis)).dot(&d))
+        })
+        .collect()
+}
+
+/// Coordinate-method heel-strike candidates at the start of a gap-free run, which
+/// [`detect_in_tracks`] leaves out: the heel's highest point ahead of the pelvis before the
+/// signal first falls [`EventParams::min_prominence_m`] below it, when nothing before it in the
+/// run lies that far below (the run's start cuts the peak's left side short, so it is no
+/// prominent peak for [`extrema`]).
+///
+/// Such a peak is not known to be a turning point: the recording (or the gap) may begin in
+/// terminal swing, a few frames before the landing (the treadmill recording in `shared/data`
+/// starts 52 ms before a plate contact), or in mid-stance, when the heel falls back behind the
+/// pelvis from the first frame on. So these are only candidates: the caller keeps one only if
+/// the heel marker is seen to land after it (see `refine_heel_strikes` in `params.rs`), which a
+/// heel already resting on the floor never does.
+pub(crate) fn edge_heel_strikes(
+    tracks: &Tracks,
+    segmentation: &Segmentation,
+    params: &EventParams,
+) -> Vec<GaitEvent> {
+    let mut events = Vec::new();
+    for (index, segment) in segmentation.segments.iter().enumerate() {
+        for foot in Foot::BOTH {
+            let values = relative_to_pelvis(tracks, segment, &tracks.heel[foot.index()]);
+            for (offset, run) in runs_of(&values) {
+                let mut peak = 0;
+                for (i, v) in run.iter().enumerate() {
+                    if *v > run[peak] {
+                        peak = i;
+                    }
+                    let floor = run[peak] - params.min_prominence_m;
+                    if *v < floor {
+                        if run[..peak].iter().all(|b| *b > floor) {
+                            let frame = (segment.first_frame + offset + peak) as f64;
+                            push(
+                                &mut events,
+                                tracks,
+                                index,
+                                foot,
+                                EventKind::HeelStrike,
+                                frame,
+                            );
+                        }
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    events
 }
 
 /// Maximal runs of present values: (index of the first, the values).

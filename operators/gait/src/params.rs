@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 use trigait_skeleton::MotionClip;
 
 use crate::clean::{CleanParams, DataQuality};
-use crate::events::{detect_in_tracks, heel_at};
+use crate::events::{detect_in_tracks, edge_heel_strikes, heel_at};
 use crate::physics::{self, FlightPhase, PhysicsParams};
 use crate::segment::{
     ExcludedPhase, ExclusionReason, Segmentation, WalkingSegment, segment_tracks,
@@ -552,8 +552,29 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         .collect();
     let rejected_events = proposed_count - events.len();
     let mut events = events;
+    let method = match params.events.method {
+        crate::EventMethod::Auto if running => crate::EventMethod::Velocity,
+        crate::EventMethod::Auto => crate::EventMethod::Coordinate,
+        m => m,
+    };
     if tracks.heel_source == HeelSource::HeelMarker {
-        refine_heel_strikes(&tracks, &mut events);
+        let edges = if method == crate::EventMethod::Coordinate {
+            let separation = params.events.min_separation_secs * rate;
+            edge_heel_strikes(&tracks, &segmentation, &params.events)
+                .into_iter()
+                .filter(|e| {
+                    heights.allows(e.foot, true, e.frame, params.physics.event_gate_m)
+                        && !events.iter().any(|o| {
+                            o.foot == e.foot
+                                && o.kind == EventKind::HeelStrike
+                                && (o.frame - e.frame).abs() < separation
+                        })
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        refine_heel_strikes(&tracks, &mut events, edges, treadmill.is_some());
         if !running {
             refine_toe_offs(&tracks, &mut events);
         }
@@ -580,11 +601,6 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         });
     }
     let summary = summarise_with_steps(&strides, &steps);
-    let method = match params.events.method {
-        crate::EventMethod::Auto if running => crate::EventMethod::Velocity,
-        crate::EventMethod::Auto => crate::EventMethod::Coordinate,
-        m => m,
-    };
     Ok(GaitAnalysis {
         rate_hz: rate,
         duration_secs: tracks.len().saturating_sub(1) as f64 / rate,
@@ -609,53 +625,148 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
 /// 0.3–0.6 m/s descent, above marker jitter at 100 Hz.
 const HEEL_LANDED_MPS: f64 = 0.02;
 
+/// A heel marker moving horizontally faster than this (m/s) is still swinging, not on the
+/// floor: the heel-contact threshold of Ghoussayni et al. (2004), who applied it to the heel
+/// marker's sagittal speed (here the horizontal part; the vertical part is the other landing
+/// condition). At the 20 N instants of the force-plate recordings in `shared/data` the heel
+/// marker moves at 0.07–0.49 m/s overground and 0.28–0.59 m/s relative to the belt.
+///
+/// Not chosen from the recordings, but checked on all of them (sweep of 0.3–1.0 m/s): 0.3
+/// loses treadmill contacts and puts BTS 21 ms late, 0.4 puts BTS's cadence off by 1.6 %; from
+/// 0.6 up the plate contacts are unchanged, but a child's off-plate strike that the lab
+/// labelled moves early (HC039A17's cadence +0.96 % at 0.6, +1.3 % at 0.8, +1.6 % at 1.0).
+const HEEL_SLIDING_MPS: f64 = 0.5;
+
+/// On a treadmill the heel marker has landed once it is within this height (m) of its lowest
+/// point over the [`HEEL_STANCE_LOW_SECS`] after the candidate: the last millimetre of the
+/// 1–3 mm it sinks after meeting the belt. Swept on the treadmill recording's 21 contacts:
+/// heel-strike mean |error| 6.0 ms at 0.5 mm, 5.1 ms at 1 mm, 5.6 ms at 1.5 mm, 6.6 ms at 2 mm
+/// (which also puts the last contact more than 30 ms early), 7.8 ms at 3 mm.
+const BELT_LANDED_M: f64 = 0.001;
+
+/// How far after the candidate the heel's early-stance low is looked for (s): within the
+/// stance that follows, before heel rise.
+const HEEL_STANCE_LOW_SECS: f64 = 0.3;
+
 /// How far after the coordinate method's heel strike the landing is sought (s).
 const HEEL_LANDING_SEARCH_SECS: f64 = 0.12;
 
-/// Moves each heel strike found on a heel *marker* to where the marker stops descending.
+/// Where the heel marker of `foot` lands after the candidate at `frame`: `(frame, seen)`, with
+/// `seen` true when the heel was still swinging at the first frame searched (moving
+/// horizontally faster than [`HEEL_SLIDING_MPS`]), so that the whole landing was observed.
+/// `None` when no landing is found within [`HEEL_LANDING_SEARCH_SECS`].
+fn heel_landing(tracks: &Tracks, foot: Foot, frame: f64, on_belt: bool) -> Option<(f64, bool)> {
+    let rate = tracks.rate_hz;
+    let track = &tracks.heel[foot.index()];
+    let at = |f: usize| track.get(f).copied().flatten();
+    let start = frame.floor().max(1.0) as usize;
+    let search = (HEEL_LANDING_SEARCH_SECS * rate).ceil() as usize;
+    let low = (start..=start + (HEEL_STANCE_LOW_SECS * rate).round() as usize)
+        .filter_map(|f| at(f).map(|p| p.z))
+        .fold(f64::INFINITY, f64::min);
+    // (the landing condition's quantity that must fall below its limit, horizontal speed):
+    // overground the downward speed, on a belt the height above the early-stance low.
+    let state = |f: usize| -> Option<(f64, f64)> {
+        let (a, here, b) = (at(f.checked_sub(1)?)?, at(f)?, at(f + 1)?);
+        let descent = if on_belt {
+            here.z - low
+        } else {
+            -(b.z - a.z) * rate / 2.0
+        };
+        Some((descent, horizontal(&(b - a)).norm() * rate / 2.0))
+    };
+    let limit = if on_belt {
+        BELT_LANDED_M
+    } else {
+        HEEL_LANDED_MPS
+    };
+    let landed = |s: (f64, f64)| s.0 <= limit && s.1 <= HEEL_SLIDING_MPS;
+    let swinging = state(start)?.1 > HEEL_SLIDING_MPS;
+    let mut previous: Option<(f64, f64)> = None;
+    for f in start..=start + search {
+        let s = state(f)?;
+        if landed(s) {
+            let Some(q) = previous else {
+                return Some((f as f64, false));
+            };
+            // Linear interpolation of whichever condition was met last.
+            let cross = |a: f64, b: f64, limit: f64| {
+                if a > limit && b < a {
+                    ((a - limit) / (a - b)).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                }
+            };
+            let frac = cross(q.0, s.0, limit).max(cross(q.1, s.1, HEEL_SLIDING_MPS));
+            return Some(((f - 1) as f64 + frac, swinging));
+        }
+        previous = Some(s);
+    }
+    None
+}
+
+/// Moves each heel strike found on a heel *marker* to where the marker lands, and adds the
+/// `edges` candidates ([`crate::events::edge_heel_strikes`]) whose landing is seen.
 ///
 /// The coordinate method marks the instant the heel is furthest ahead of the pelvis, which on
 /// force plates comes 40–50 ms before the vertical force reaches 20 N (measured on the four
 /// force-plate recordings in `shared/data`, for heel markers and ankle centres alike): the heel
-/// is still coming down. The landing itself is when the marker's downward speed falls below
-/// [`HEEL_LANDED_MPS`], found within [`HEEL_LANDING_SEARCH_SECS`] after the candidate (linear
-/// interpolation between frames); without such a moment the candidate stays. Skeleton ankles are
-/// too noisy in height for this and keep the coordinate-method instant.
-fn refine_heel_strikes(tracks: &Tracks, events: &mut [GaitEvent]) {
+/// is still coming down. The landing is the first instant, within
+/// [`HEEL_LANDING_SEARCH_SECS`] after the candidate, at which the marker is down and no longer
+/// sliding: its horizontal speed is at most [`HEEL_SLIDING_MPS`] (Ghoussayni et al.'s heel
+/// contact) and
+///
+/// - overground, it has stopped descending (downward speed below [`HEEL_LANDED_MPS`]): the
+///   heels measured land gently (at most 0.06 m/s down at the 20 N instant: the children, the
+///   CGM2 and the BTS walks) after skimming the floor within 1 mm for 8–28 ms, so a height
+///   rule is early there;
+/// - on a treadmill (`on_belt`), it is within [`BELT_LANDED_M`] of its lowest point over the
+///   following [`HEEL_STANCE_LOW_SECS`]: on the belt the heel meets the plate still descending
+///   at 0.08–0.2 m/s and sinks up to 2 mm more over the next 10–20 ms, so where it stops is
+///   late there (14 ms mean |error|). A single rule for both was not found: a vertical-speed
+///   threshold that fits the treadmill (−0.08 m/s) is 13–21 ms early on the gentle CGM2
+///   landings, the height rule 8–28 ms early overground, and the peak of the heel's upward
+///   acceleration (the impact) is 50 ms early on the CGM2 landings, which have none.
+///
+/// The speed gate matters where a heel reaches its lowest point while still swinging forward
+/// (1.8 m/s at one of the children's off-plate strikes, HC039A17 at 1.61 s; it stops 35 ms
+/// later, where the lab labelled the strike); of the overground plate contacts it moves one
+/// (BTS, from 6 to 1 ms early). Zeni et al.'s candidate refined by a heel-speed condition is
+/// also how Bonci et al. (2022) detect contacts.
+///
+/// Linear interpolation between frames of the condition met last; without a landing the
+/// candidate stays. An edge candidate is kept only if the heel is seen to land after it: still
+/// swinging (faster than [`HEEL_SLIDING_MPS`]) at the first frame searched, and landed within
+/// the search. A heel at rest that settles by a millimetre as the recording begins (the CGM2
+/// walk's left heel, 0.06 m/s down at 0.03 m/s forward) is no landing seen. Skeleton ankles
+/// are too noisy in height for this and keep the coordinate-method instant.
+fn refine_heel_strikes(
+    tracks: &Tracks,
+    events: &mut Vec<GaitEvent>,
+    edges: Vec<GaitEvent>,
+    on_belt: bool,
+) {
     let rate = tracks.rate_hz;
-    let search = (HEEL_LANDING_SEARCH_SECS * rate).ceil() as usize;
+    let moved = |e: &mut GaitEvent, frame: f64| {
+        let frame = frame.max(e.frame);
+        e.frame = frame;
+        e.time_secs = frame / rate;
+    };
     for e in events
         .iter_mut()
         .filter(|e| e.kind == EventKind::HeelStrike)
     {
-        let z = |f: usize| {
-            tracks.heel[e.foot.index()]
-                .get(f)
-                .copied()
-                .flatten()
-                .map(|p| p.z)
-        };
-        let vz =
-            |f: usize| -> Option<f64> { Some((z(f + 1)? - z(f.checked_sub(1)?)?) * rate / 2.0) };
-        let start = e.frame.floor().max(1.0) as usize;
-        let mut previous: Option<(usize, f64)> = None;
-        for f in start..=start + search {
-            let Some(v) = vz(f) else { break };
-            if v >= -HEEL_LANDED_MPS {
-                let frame = match previous {
-                    Some((p, pv)) if (v - pv).abs() > 1e-12 => {
-                        p as f64 + ((-HEEL_LANDED_MPS - pv) / (v - pv)).clamp(0.0, 1.0)
-                    }
-                    _ => f as f64,
-                };
-                let frame = frame.max(e.frame);
-                e.frame = frame;
-                e.time_secs = frame / rate;
-                break;
-            }
-            previous = Some((f, v));
+        if let Some((frame, _)) = heel_landing(tracks, e.foot, e.frame, on_belt) {
+            moved(e, frame);
         }
     }
+    for mut e in edges {
+        if let Some((frame, true)) = heel_landing(tracks, e.foot, e.frame, on_belt) {
+            moved(&mut e, frame);
+            events.push(e);
+        }
+    }
+    events.sort_by(|a, b| a.time_secs.total_cmp(&b.time_secs));
 }
 
 /// A toe marker this far (m) above its lowest point over the preceding
