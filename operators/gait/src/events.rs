@@ -96,8 +96,8 @@ pub enum EventMethod {
     /// stance is where it stops, whatever the pelvis does.
     Velocity,
     /// The coordinate method for walking, the velocity method when the clip is running (flight
-    /// phases in at least [`RUNNING_FLIGHT_FRACTION`] of the walking time). The analysis says
-    /// which it used.
+    /// phases in at least [`RUNNING_FLIGHT_FRACTION`] of the walking time, recurring at least
+    /// [`RUNNING_MIN_FLIGHTS_PER_SEC`] times a second). The analysis says which it used.
     #[default]
     Auto,
 }
@@ -105,6 +105,14 @@ pub enum EventMethod {
 /// Fraction of the walking time in flight (both feet off the floor) above which a clip is
 /// running: walking has no flight at all, running 10–40 % of each stride.
 pub const RUNNING_FLIGHT_FRACTION: f64 = 0.03;
+
+/// Flight phases per second of walking time below which the flights are tracking noise, not
+/// running: a runner is airborne between *every* two contacts, at 150 steps/min (2.5 steps/s) or
+/// more, so even a tracker that misses half of the short flights sees 1.25 a second. A Kinect
+/// ankle that lifts in terminal stance (heel off) while the other foot is still swinging, or a
+/// far-range noisy pair of feet, gives isolated "flights" at a fraction of the step rate (the
+/// CHU walking log: 3 in 5.4 s of walking, 0.55 /s, yet 10 % of its frames).
+pub const RUNNING_MIN_FLIGHTS_PER_SEC: f64 = 1.25;
 
 impl EventMethod {
     /// Name used on the command line and in JSON.

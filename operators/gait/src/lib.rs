@@ -79,7 +79,8 @@ pub use angles::{CYCLE_SAMPLES, FlexionCycle, flexion_cycles, mean_curve, sagitt
 pub use clean::{CleanParams, DataQuality, clean};
 pub use error::{Error, Result};
 pub use events::{
-    EventKind, EventMethod, EventParams, Foot, GaitEvent, RUNNING_FLIGHT_FRACTION, detect_events,
+    EventKind, EventMethod, EventParams, Foot, GaitEvent, RUNNING_FLIGHT_FRACTION,
+    RUNNING_MIN_FLIGHTS_PER_SEC, detect_events,
 };
 pub use floor::FloorLevel;
 pub use live::{FootCounts, LiveAnalysis, LiveGait, LiveGaitParams, LiveReport, TimedEvent};

@@ -535,8 +535,20 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         .iter()
         .map(|s| heights.flight_frames(s.first_frame, s.last_frame))
         .sum();
-    let running =
-        flight_frames as f64 >= crate::events::RUNNING_FLIGHT_FRACTION * walking_frames as f64;
+    let flight_count = heights
+        .flights
+        .iter()
+        .filter(|p| {
+            segmentation
+                .segments
+                .iter()
+                .any(|s| p.first_frame <= s.last_frame && p.last_frame >= s.first_frame)
+        })
+        .count();
+    let walking_secs = walking_frames as f64 / rate;
+    let running = flight_frames as f64
+        >= crate::events::RUNNING_FLIGHT_FRACTION * walking_frames as f64
+        && flight_count as f64 >= crate::events::RUNNING_MIN_FLIGHTS_PER_SEC * walking_secs;
     let proposed = detect_in_tracks(&tracks, &segmentation, &params.events, running);
     let proposed_count = proposed.len();
     let events: Vec<GaitEvent> = proposed

@@ -9,7 +9,9 @@
 //!
 //! **Detection** ([`TreadmillMode::Auto`]): the pelvis travels less than
 //! [`MAX_PELVIS_TRAVEL_M`] over the clip, while both heels swing back and forth relative to it
-//! by at least [`MIN_FOOT_EXCURSION_M`] along one horizontal axis (periodic feet) and the stance
+//! by at least [`MIN_FOOT_EXCURSION_M`] along one horizontal axis (periodic feet), the feet
+//! pass each other along that axis (each is ahead of the other by at least
+//! [`MIN_PASSING_M`] at times: walking, not a leg moved out to the side and back) and the stance
 //! heel moves steadily along that axis. **Belt speed**, unless declared, is the median
 //! horizontal velocity of the heels along that axis over the samples where the heel is within
 //! [`STANCE_HEIGHT_M`] of its stance level and moving backwards: a stance foot on a belt moves
@@ -57,6 +59,12 @@ pub const MAX_PELVIS_TRAVEL_M: f64 = 0.5;
 /// Each heel's back-and-forth excursion relative to the pelvis (5th–95th percentile range along
 /// the walking axis) is at least this on a treadmill (m): half a normal stride is ≈ 0.6 m.
 pub const MIN_FOOT_EXCURSION_M: f64 = 0.25;
+/// In walking each foot overtakes the other once per stride, so the left-minus-right heel
+/// distance along the walking axis swings from about −1 to +1 step length (≈ ±0.6 m). Legs moved
+/// out to the side and back, or a kick in place, keep one foot on its own side: that difference
+/// keeps its sign. The 10th and 90th percentiles must lie at least this far (m) on either side of
+/// zero — a third of a short (0.3 m) step, far above the 1–2 cm of tracker noise.
+pub const MIN_PASSING_M: f64 = 0.1;
 /// Heel samples within this height of the heel's stance level count as stance (m).
 pub const STANCE_HEIGHT_M: f64 = 0.03;
 /// A belt slower than this (m/s) is no treadmill walk (stepping in place): the median velocity of
@@ -69,6 +77,21 @@ fn percentile(values: &mut [f64], q: f64) -> Option<f64> {
     }
     values.sort_by(f64::total_cmp);
     Some(values[((values.len() - 1) as f64 * q).round() as usize])
+}
+
+/// Whether the heels overtake each other along `axis` (see [`MIN_PASSING_M`]).
+fn feet_pass(l: &Landmarks, axis: &Vector2<f64>) -> bool {
+    let mut ahead: Vec<f64> = l.heel[0]
+        .iter()
+        .zip(&l.heel[1])
+        .filter_map(|(a, b)| {
+            let d = a.as_ref()? - b.as_ref()?;
+            Some(Vector2::new(d.x, d.y).dot(axis))
+        })
+        .collect();
+    let low = percentile(&mut ahead, 0.1);
+    let high = percentile(&mut ahead, 0.9);
+    matches!((low, high), (Some(a), Some(b)) if a <= -MIN_PASSING_M && b >= MIN_PASSING_M)
 }
 
 /// The principal horizontal axis of the heels' motion relative to the pelvis.
@@ -125,6 +148,9 @@ pub(crate) fn correct(
         return None;
     }
     let axis = foot_axis(landmarks)?;
+    if !declared && !feet_pass(landmarks, &axis) {
+        return None;
+    }
     let rate = landmarks.rate_hz;
     let mut velocities = Vec::new();
     for side in 0..2 {

@@ -1,0 +1,176 @@
+//! The real Kinect v2 SDK logs in the shared data folder (`kinect-v2-vicon-chu-walk`,
+//! `kinect-v2-skeleton-replay`), read as `trigait gait` reads them (30 Hz, inferred joints
+//! dropped) and analysed with default parameters. Each test is skipped when the shared folder is
+//! absent. What a file shows is in its folder's `SOURCE.txt`.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test that cannot unwrap has failed
+
+use trigait_gait::{
+    CleanParams, DataQuality, Error, Foot, GaitAnalysis, GaitParams, Landmarks, Result,
+    analyse_landmarks, clean,
+};
+
+const CHU: &str = "kinect-v2-vicon-chu-walk/JointsInfo_before_CHU_test.txt";
+const STRAIGHT: &str = "kinect-v2-skeleton-replay/JointsInfo_Straight.txt";
+const CYRILLE: &str = "kinect-v2-skeleton-replay/JointsInfo_Cyrille_v2_2.txt";
+
+fn landmarks(relative: &str) -> Option<Landmarks> {
+    let path = trigait_test_data::shared_file(relative)?;
+    let frames = trigait_motion::read_sdk_skeletons(&path).expect("readable SDK text");
+    let sdk = trigait_motion::sdk_clip(relative, &frames, 30.0, true).expect("SDK clip");
+    Some(Landmarks::from_clip(&sdk.clip).expect("ankles and pelvis"))
+}
+
+/// The cleaning step's counts (also reported when no walking is found).
+fn quality(l: &Landmarks) -> DataQuality {
+    let mut tracks = l.clone();
+    clean(&mut tracks, &CleanParams::default()).expect("clean")
+}
+
+fn analyse(relative: &str) -> Option<(Landmarks, Result<GaitAnalysis>)> {
+    let l = landmarks(relative)?;
+    let result = analyse_landmarks(&l, &GaitParams::default());
+    match &result {
+        Ok(a) => {
+            eprintln!(
+                "{relative}: running {} flights {} treadmill {:?} rejected samples {} events {}",
+                a.running,
+                a.flights.len(),
+                a.treadmill,
+                a.quality.rejected(),
+                a.rejected_events
+            );
+            for s in &a.strides {
+                eprintln!(
+                    "  {:?} {:.2}-{:.2} s {:.2} m {:.0} steps/min",
+                    s.foot, s.start_secs, s.end_secs, s.stride_length_m, s.cadence_steps_per_min
+                );
+            }
+        }
+        Err(e) => eprintln!("{relative}: {e}"),
+    }
+    Some((l, result))
+}
+
+/// `JointsInfo_Cyrille_v2_2.txt`: 32 s of leg movements in place (SpineBase within a few cm at
+/// z ≈ 1.9 m); the ankles swing mostly sideways (camera x, ±0.2 m) and never pass each other.
+/// It used to be taken for a treadmill (belt 1.16 m/s, 3 strides at 234 steps/min). Asserted:
+/// no walking at all, with the reason — the pelvis stands still for most of the clip (> 15 s
+/// of standing; the rest is gaps and sub-0.8 s twitches), not a treadmill walk and not an
+/// invented stride; and the tracker glitches are counted.
+#[test]
+fn cyrille_in_place_legs_give_no_strides() {
+    let Some((l, result)) = analyse(CYRILLE) else {
+        return;
+    };
+    match result {
+        Err(Error::NoWalking {
+            duration_secs,
+            standing_secs,
+            ..
+        }) => {
+            assert!(duration_secs > 30.0, "{duration_secs}");
+            assert!(standing_secs > 15.0, "standing {standing_secs} s");
+        }
+        Ok(a) => panic!(
+            "in-place leg movements analysed as walking: {} strides, treadmill {:?}",
+            a.strides.len(),
+            a.treadmill
+        ),
+        Err(e) => panic!("unexpected error {e}"),
+    }
+    let q = quality(&l);
+    assert!(q.rejected() > 0, "{q:?}");
+}
+
+/// `JointsInfo_before_CHU_test.txt`: three tracked runs of a ~0.95 m/s walk to and from the
+/// sensor. Its flight phases (both ankles > 5 cm above their levels) are tracking artefacts —
+/// a Kinect ankle lifts in terminal stance (heel off) while the other foot is still in swing,
+/// and far-range feet are noisy — at 0.55 a second of walking where a runner is airborne at
+/// every step (≥ 2.5 a second). Asserted: the flights are still reported, but the clip is
+/// *walking* (coordinate method), and the tracker's jumps are counted as rejected samples
+/// (12 today: 11 jumps, 1 limb length).
+#[test]
+fn chu_walk_flights_are_noise_not_running() {
+    let Some((_, result)) = analyse(CHU) else {
+        return;
+    };
+    let a = result.expect("the CHU walk has walking segments");
+    assert!(!a.flights.is_empty());
+    assert!(!a.running, "{} flights taken for running", a.flights.len());
+    assert!(a.quality.rejected() >= 5, "{:?}", a.quality);
+    assert!(a.quality.remaining_gaps > 0, "{:?}", a.quality);
+}
+
+/// Physiological walking: cadence 70–140 steps/min, stride 0.6–1.8 m (adult norms, about
+/// 100–120 steps/min and 1.2–1.5 m, widened for slow and brisk walkers), and left and right mean strides within 20 % of each other.
+fn assert_plausible(a: &GaitAnalysis) {
+    for foot in [Foot::Left, Foot::Right] {
+        let strides: Vec<_> = a.strides.iter().filter(|s| s.foot == foot).collect();
+        assert!(!strides.is_empty(), "no {foot:?} stride");
+        for s in &strides {
+            assert!(
+                (70.0..=140.0).contains(&s.cadence_steps_per_min)
+                    && (0.6..=1.8).contains(&s.stride_length_m),
+                "{foot:?} stride {:.2} m at {:.0} steps/min",
+                s.stride_length_m,
+                s.cadence_steps_per_min
+            );
+        }
+    }
+    let mean = |foot: Foot| {
+        let v: Vec<f64> = a
+            .strides
+            .iter()
+            .filter(|s| s.foot == foot)
+            .map(|s| s.stride_length_m)
+            .collect();
+        v.iter().sum::<f64>() / v.len() as f64
+    };
+    let (l, r) = (mean(Foot::Left), mean(Foot::Right));
+    assert!(
+        (l - r).abs() <= 0.2 * l.max(r),
+        "left {l:.2} m, right {r:.2} m"
+    );
+}
+
+/// The CHU walk at about 0.95 m/s (SOURCE.txt) should give strides near 1.1–1.3 m at about
+/// 90–110 steps/min on both feet. Not yet: the right ankle jumps 0.65 m in one frame
+/// (7.00→7.06 s, longer-lived than the jump filter's ±0.1 s window) and a 12 cm blip after it
+/// is read as a heel strike (right 0.67 m at 236 steps/min); the left stride is 1.26 m at 149.
+#[test]
+#[ignore = "not yet plausible: an ankle jump and blip give an extra heel strike"]
+fn chu_walk_is_plausible() {
+    let Some((_, result)) = analyse(CHU) else {
+        return;
+    };
+    assert_plausible(&result.expect("walking"));
+}
+
+/// `JointsInfo_Straight.txt`: 2.8 s walking diagonally toward the sensor; the skeleton first
+/// shoots 1.2 m away from the sensor in 0.5 s (tracker start-up), and the walking segment found
+/// starts after it (0.97 s). Asserted: the walk is
+/// found and its tracker glitches are counted.
+#[test]
+fn straight_walk_is_found_and_glitches_counted() {
+    let Some((_, result)) = analyse(STRAIGHT) else {
+        return;
+    };
+    let a = result.expect("a walking segment");
+    assert!(!a.segments.is_empty());
+    assert!(a.quality.rejected() >= 1, "{:?}", a.quality);
+}
+
+/// Both feet of the Straight walk should give a stride at a walking cadence. Not yet: at the
+/// coordinate-method heel strikes (1.14 and 1.70 s) the left ankle is still 7.5–10 cm above its
+/// stance level, so the 0.10 m gate drops them; opened, they give a left stride of 0.96 m at
+/// 213 steps/min, next to the right 0.84 m at 206 — consistent, but no walking cadence at the
+/// assumed 30 Hz (the log has no time stamps).
+#[test]
+#[ignore = "not yet plausible: left heel strikes gated as airborne, cadence above 200 steps/min"]
+fn straight_walk_is_plausible() {
+    let Some((_, result)) = analyse(STRAIGHT) else {
+        return;
+    };
+    assert_plausible(&result.expect("walking"));
+}
