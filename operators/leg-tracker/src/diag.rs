@@ -72,11 +72,7 @@ fn run(
         )
         .unwrap();
         let mut alone = Renderer::new(RenderParams::default(), &pose, &Room::default()).unwrap();
-        let mut tracker = LegTracker::new(TrackerConfig {
-            floor: Floor::from_pose(&pose),
-            ..TrackerConfig::default()
-        })
-        .unwrap();
+        let mut tracker = LegTracker::new(super::tests::config_for(&pose)).unwrap();
         let up = pose.rotation.inverse() * Vector3::z();
         let key = format!("{} {}", lap.name(), sensor.id);
         let entry = table.entry(key.clone()).or_default();

@@ -14,7 +14,8 @@ fn lap() -> MotionClip {
     there_and_back(&clip.placed_on_walkway()).unwrap()
 }
 
-fn config_for(pose: &Isometry3<f64>) -> TrackerConfig {
+/// The tracker as a rigged sensor runs it: the floor from the sensor's pose.
+pub(super) fn config_for(pose: &Isometry3<f64>) -> TrackerConfig {
     TrackerConfig {
         floor: Floor::from_pose(pose),
         ..TrackerConfig::default()
