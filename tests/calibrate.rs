@@ -66,10 +66,10 @@ fn reports_fusion_rmse_within_the_bound() {
 /// `dataflows/calibrate.yml` on a 10 s run of the simulated walk, calibrating from the data
 /// alone after 8 s: it writes `out/rig.calibrated.yml`, a rig file the graphs read, whose
 /// sensors lie at the true rig's distances from each other within 2 cm (what the walk fixes
-/// whatever the world frame), and `out/calibration.json`, the report. The simulated walk goes
-/// out and back on one line, so the report must say that the rotation about the walking
-/// direction is not observable; each sensor's height is then only as good as its reported
-/// uncertainty, and lies within 3σ of the truth.
+/// whatever the world frame), and `out/calibration.json`, the report. The simulated walk comes
+/// back on a second lane 1 m to the side, so the floor's tilt across the walk is observed: no
+/// rotation is reported unobservable, and each sensor's height lies within 3σ (its reported
+/// uncertainty) and 3 cm of the truth.
 #[test]
 fn calibrate_graph_writes_the_calibrated_rig() {
     let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
@@ -97,11 +97,7 @@ fn calibrate_graph_writes_the_calibrated_rig() {
     .unwrap();
     let findings = report["findings"].as_array().unwrap();
     assert!(
-        findings.iter().any(|f| f["kind"] == "unobservable"
-            && f["message"]
-                .as_str()
-                .unwrap()
-                .contains("rotation about the walking direction")),
+        !findings.iter().any(|f| f["kind"] == "unobservable"),
         "{findings:#?}"
     );
     for id in ["k1", "k2", "k3"] {
@@ -115,7 +111,7 @@ fn calibrate_graph_writes_the_calibrated_rig() {
         let sigma_z = sensor["position_sigma_m"][2].as_f64().unwrap();
         eprintln!("{id}: calibrated {g:.3?}, true {t:.3?}, σz {sigma_z:.3} m");
         assert!(
-            (g.z - t.z).abs() < 3.0 * sigma_z + 0.005,
+            (g.z - t.z).abs() < (3.0 * sigma_z + 0.005).min(0.03),
             "{id}: height {:.3} m, truth {:.3} m, σ {sigma_z:.3} m",
             g.z,
             t.z

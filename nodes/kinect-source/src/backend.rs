@@ -54,12 +54,17 @@ impl Source {
     /// Builds the configured backend; errors name the node and the key at fault.
     pub fn new(config: &Config, now: i64) -> eyre::Result<Self> {
         match &config.backend {
-            Backend::BodyDepth { motion, walk_secs } => {
+            Backend::BodyDepth {
+                motion,
+                walk_secs,
+                lane_m,
+            } => {
                 let sim = Self::new(
                     &Config {
                         backend: Backend::Sim {
                             motion: motion.clone(),
                             walk_secs: *walk_secs,
+                            lane_m: *lane_m,
                         },
                         ..config.clone()
                     },
@@ -71,7 +76,7 @@ impl Source {
                         config::BACKEND
                     )
                 };
-                let lap = load_lap(motion, *walk_secs, config.all_joints)
+                let lap = load_lap(motion, *walk_secs, *lane_m, config.all_joints)
                     .with_context(|| format!("kinect-source: {}={motion:?}", config::MOTION))?;
                 let seed = config.seed
                     ^ 0xb0d7_u64.rotate_left(23)
@@ -86,8 +91,12 @@ impl Source {
                     )?,
                 )))
             }
-            Backend::Sim { motion, walk_secs } => {
-                let lap = load_lap(motion, *walk_secs, config.all_joints)
+            Backend::Sim {
+                motion,
+                walk_secs,
+                lane_m,
+            } => {
+                let lap = load_lap(motion, *walk_secs, *lane_m, config.all_joints)
                     .with_context(|| format!("kinect-source: {}={motion:?}", config::MOTION))?;
                 let params = SimulatedSensorParams {
                     sensor_id: config.sensor_id.clone(),
@@ -211,8 +220,18 @@ fn recording_source(
     Ok(Source::Recording(sensor))
 }
 
-/// The motion as an endless lap: out and back along the walkway.
-pub fn load_lap(motion: &str, walk_secs: f64, all_joints: bool) -> eyre::Result<MotionClip> {
+/// How long the walker turns at either end of a two-lane walk, seconds: a person pacing a
+/// walkway takes about two steps to turn round.
+const TURN_SECS: f64 = 1.0;
+
+/// The motion as an endless lap: out and back along the walkway, on the same line
+/// (`lane_m = 0`) or back on a second line `lane_m` to the side.
+pub fn load_lap(
+    motion: &str,
+    walk_secs: f64,
+    lane_m: f64,
+    all_joints: bool,
+) -> eyre::Result<MotionClip> {
     let clip = if motion.trim() == "walker" {
         let params = trigait_motion::WalkerParams {
             all_joints,
@@ -222,5 +241,10 @@ pub fn load_lap(motion: &str, walk_secs: f64, all_joints: bool) -> eyre::Result<
     } else {
         trigait_motion::load_motion(motion.trim()).context("loading the motion file")?
     };
-    trigait_sim::stream::lap(&clip).context("turning the walk into a lap")
+    if lane_m > 0.0 {
+        trigait_motion::walkway_loop(&clip.placed_on_walkway(), lane_m, TURN_SECS)
+    } else {
+        trigait_sim::stream::lap(&clip)
+    }
+    .context("turning the walk into a lap")
 }

@@ -7,6 +7,7 @@
 //! | `BACKEND` | `sim`, `body-depth`, `replay`, `recording`, `freenect2` | `sim` | where frames come from (`body-depth`: simulated depth of the body instead of skeleton frames, [`crate::body_depth`]) |
 //! | `MOTION` | `walker` or a C3D/TRC/CSV path | `walker` | what the simulated subject does (played there and back, endlessly; `sim` and `body-depth`) |
 //! | `WALK_SECS` | seconds | `2.5` | one-way duration of the embedded walker |
+//! | `LANE_M` | metres, 0–3 | `0` | walk back on a second line this far to the side, turning for a second at either end (no joints reported while turning); `0`: back on the same line, turning on the spot. Every source of a graph needs the same value (`sim` and `body-depth`) |
 //! | `JOINTS` | `legs` or `all` | `legs` | joints reported |
 //! | `SEED` | integer | `1` | noise seed (each sensor has its own stream) |
 //! | `FRAME_RATE_HZ` | Hz | `30` | capture rate |
@@ -43,6 +44,8 @@ pub const BACKEND: &str = "BACKEND";
 pub const MOTION: &str = "MOTION";
 /// Env var: walker duration.
 pub const WALK_SECS: &str = "WALK_SECS";
+/// Env var: distance between the outbound and the return lane.
+pub const LANE_M: &str = "LANE_M";
 /// Env var: joints.
 pub const JOINTS: &str = "JOINTS";
 /// Env var: seed.
@@ -85,6 +88,8 @@ pub enum Backend {
         motion: String,
         /// One-way walker duration, seconds.
         walk_secs: f64,
+        /// Distance between the outbound and the return lane, metres (0: the same line).
+        lane_m: f64,
     },
     /// The simulator's body rendered as depth (`depth` output, no skeleton frames).
     BodyDepth {
@@ -92,6 +97,8 @@ pub enum Backend {
         motion: String,
         /// One-way walker duration, seconds.
         walk_secs: f64,
+        /// Distance between the outbound and the return lane, metres (0: the same line).
+        lane_m: f64,
     },
     /// A recorded SDK skeleton file.
     Replay {
@@ -284,14 +291,26 @@ impl Config {
             )
         };
         let motion = || lookup(MOTION).unwrap_or_else(|| "walker".into());
+        let lane_m = || {
+            env_number_where(
+                NODE,
+                &lookup,
+                LANE_M,
+                0.0,
+                |v| (0.0..=3.0).contains(&v),
+                "a distance within 0–3 m",
+            )
+        };
         let backend = match env_parsed(NODE, &lookup, BACKEND, BackendName::Sim)? {
             BackendName::Sim => Backend::Sim {
                 motion: motion(),
                 walk_secs: walk_secs()?,
+                lane_m: lane_m()?,
             },
             BackendName::BodyDepth => Backend::BodyDepth {
                 motion: motion(),
                 walk_secs: walk_secs()?,
+                lane_m: lane_m()?,
             },
             BackendName::Replay => Backend::Replay {
                 file: lookup(REPLAY_FILE).map(PathBuf::from).ok_or_else(|| {

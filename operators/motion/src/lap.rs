@@ -107,6 +107,28 @@ pub fn walkway_laps(
     )?)
 }
 
+/// One lap of [`walkway_laps`] made endless: out on one lane, a turn of `turn_secs`, back on
+/// the other lane, and a second turn before the lap starts over, so played modulo
+/// [`MotionClip::duration_secs`] the walker paces the walkway on two lanes for as long as a
+/// dataflow runs (the turns are gaps, as in [`walkway_laps`]).
+///
+/// # Errors
+/// As [`walkway_laps`].
+pub fn walkway_loop(clip: &MotionClip, lane_offset_m: f64, turn_secs: f64) -> Result<MotionClip> {
+    let lap = walkway_laps(clip, lane_offset_m, turn_secs, 1)?;
+    let joints = lap.joints().to_vec();
+    let turn_frames = (turn_secs.max(0.0) * lap.rate_hz()).round() as usize;
+    let frames = (0..lap.frame_count() + turn_frames)
+        .map(|f| joints.iter().map(|j| lap.position(f, *j)).collect())
+        .collect();
+    Ok(MotionClip::new(
+        format!("{} (endless)", lap.name()),
+        lap.rate_hz(),
+        joints,
+        frames,
+    )?)
+}
+
 #[cfg(test)]
 mod tests {
     use approx::assert_relative_eq;
@@ -136,6 +158,29 @@ mod tests {
         );
         let lane = |f: usize| laps.position(f, Joint::SpineBase).unwrap().y;
         assert!((lane(n / 2) + 0.5).abs() < 0.1 && (lane(back + n / 2) - 0.5).abs() < 0.1);
+    }
+
+    /// The endless two-lane lap ends with a turn, so its wrap is a gap, not a jump across lanes.
+    #[test]
+    fn endless_walkway_loop_turns_before_it_wraps() {
+        let out = walker(&WalkerParams::default(), 2.5, 100.0)
+            .unwrap()
+            .placed_on_walkway();
+        let n = out.frame_count();
+        let lap = walkway_loop(&out, 1.0, 0.5).unwrap();
+        assert_eq!(lap.frame_count(), 2 * n + 2 * 50);
+        let hip = |f: usize| lap.position(f, Joint::HipLeft);
+        assert!(
+            hip(2 * n + 50 - 1).is_some(),
+            "back lane ends before the last turn"
+        );
+        assert!(hip(2 * n + 50).is_none() && hip(lap.frame_count() - 1).is_none());
+        assert_eq!(
+            hip(0),
+            walkway_laps(&out, 1.0, 0.5, 1)
+                .unwrap()
+                .position(0, Joint::HipLeft)
+        );
     }
 
     /// The lap is twice as long, walks +X then −X, and ends near where it began.
