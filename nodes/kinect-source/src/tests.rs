@@ -44,6 +44,8 @@ fn config_errors_name_node_key_and_value() {
         ("RIG", "/no/such/rig.yml"),
         ("CLOCK_STEP_AT_SECS", "-1"),
         ("CLOCK_STEP_MILLIS", "1e12"),
+        ("LANE_M", "-1"),
+        ("LANE_M", "wide"),
     ] {
         let mut pairs = vec![("SENSOR_ID", "k1"), (key, raw)];
         if key == "REPLAY_SPEED" {
