@@ -47,6 +47,11 @@ w = s["warmup"]
 print(f"  warm-up          : {w['poses']} poses in the first {w['secs']:g} s, latency max {w['latency_ms']['max']:.1f} ms (not in the above)")
 a = s["age_ms"]
 print(f"  pose age         : p50 {a['p50']:.1f} ms, p99 {a['p99']:.1f} ms (fusion instant -> recorded)")
+wait = s.get("sync_wait", {})
+if wait.get("deadline_ms") is not None:
+    why = ", ".join(f"{k} {v}" for k, v in sorted(wait["released"].items()))
+    print(f"  sets handed on   : {why} (a set waits for each sensor's next frame, at most "
+          f"{wait['frame_wait_margin_ms']:g} ms past its expected arrival, {wait['deadline_ms']:g} ms in all)")
 print(f"  gaps             : {len(s['gaps'])}")
 print(f"  recording        : {out}/trigait.rrd  (view: .venv/bin/rerun {out}/trigait.rrd)")
 print(f"  exports          : {out}/trajectory.txt (thesis format), {out}/trajectory.csv/.trc/.c3d (trigait gait/export read them)")

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Latency/scale benchmark: runs the graph with 3, 8 and 16 simulated sensors at 30 Hz on this
 # host (ring-N rigs, interpolate + fusion) and prints end-to-end latency p50/p99 after the
-# recorder's 1 s warm-up, the warm-up's worst latency, dropped sets and the share of raw frames
-# that never reached the recorder.
+# recorder's 1 s warm-up, the warm-up's worst latency, the pose age p50/p99 (fusion instant ->
+# recorded), dropped sets and the share of raw frames that never reached the recorder.
 #   scripts/scale.sh [seconds per run, default 12] [sensor counts, default "3 8 16"]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,7 +12,7 @@ scripts/venv.sh   # .venv/ with the pinned packages of scripts/requirements.txt
 export PATH="$PWD/.venv/bin:$PATH"
 cargo build --release --workspace --all-targets
 ROOT="$PWD"
-printf "%8s %8s %10s %10s %12s %9s %8s %10s %12s %12s\n" sensors sets "p50 ms" "p99 ms" "warm-up max" dropped incompl "NTP<1ms" "RMSE mm" "frames lost"
+printf "%8s %8s %10s %10s %12s %12s %12s %9s %8s %10s %12s %12s\n" sensors sets "p50 ms" "p99 ms" "warm-up max" "age p50 ms" "age p99 ms" dropped incompl "NTP<1ms" "RMSE mm" "frames lost"
 for n in $COUNTS; do
   dir="$ROOT/target/scale/$n"
   rm -rf "$dir"; mkdir -p "$dir"
@@ -28,7 +28,7 @@ rmse = s.get("rmse_all_m")
 lost = sum(s["frames_lost"].values())
 total = lost + sum(s["frames_in"].values())
 print(f"{sys.argv[2]:>8} {s['sets_fused']:>8} {s['latency_ms']['p50']:>10.2f} {s['latency_ms']['p99']:>10.2f} "
-      f"{s['warmup']['latency_ms']['max']:>12.1f} {s['dropped_sets']:>9} {s['incomplete_sets']:>8} {100 * share:>9.1f}% {rmse * 1000 if rmse else float('nan'):>12.1f}"
+      f"{s['warmup']['latency_ms']['max']:>12.1f} {s['age_ms']['p50']:>12.1f} {s['age_ms']['p99']:>12.1f} {s['dropped_sets']:>9} {s['incomplete_sets']:>8} {100 * share:>9.1f}% {rmse * 1000 if rmse else float('nan'):>12.1f}"
       f" {100 * lost / max(total, 1):>11.1f}%")
 PY
 done

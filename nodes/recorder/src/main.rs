@@ -21,7 +21,10 @@ mod viz;
 mod writer;
 
 use dora_node_api::arrow_v59::array::Array;
-use dora_node_api::{DoraNode, Event, EventStream, MetadataParameters, get_integer_param};
+use dora_node_api::{
+    DoraNode, Event, EventStream, MetadataParameters, Parameter, get_integer_param,
+    get_string_param,
+};
 use eyre::Context;
 use tracing::{error, info, warn};
 use trigait_node_config::RigStamp;
@@ -188,6 +191,12 @@ impl Recorder {
             .filter_map(|j| self.stats.truth_at(*j, pose.stamp_nanos))
             .collect();
         let sent = get_integer_param(params, ports::TRIGGER_SENT_NANOS);
+        let budget = match params.get(ports::SYNC_WAIT_BUDGET_NANOS) {
+            Some(Parameter::ListInt(budget)) => Some(budget.as_slice()),
+            _ => None,
+        };
+        self.stats
+            .push_sync_wait(get_string_param(params, ports::SYNC_RELEASE), budget);
         let logged = viz::log_pose(&self.rec, &pose, &truth, sent.map(|sent| now - sent))
             .and_then(|()| self.gait.push(&pose));
         self.ring.push(&pose);

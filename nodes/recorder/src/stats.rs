@@ -40,6 +40,7 @@ pub struct Stats {
     joints_fused: u64,
     joints_skipped: u64,
     skip_reasons: BTreeMap<String, u64>,
+    sync_wait: SyncWait,
     frames: BTreeMap<String, SensorFrames>,
     /// Inputs that could not be decoded.
     pub malformed: u64,
@@ -138,9 +139,12 @@ pub struct Summary {
     pub latency_ms: Percentiles,
     /// The poses of the first moments, whose latency is not the steady state's.
     pub warmup: Warmup,
-    /// Pose age when recorded (recorder clock − fusion instant), ms; includes the wait for the
-    /// frame after the instant that interpolation needs.
+    /// Pose age when recorded (recorder clock − fusion instant) in the steady state (after
+    /// [`Self::warmup`]), ms; includes the wait for the frame after the instant that
+    /// interpolation needs.
     pub age_ms: Percentiles,
+    /// How long `sync` let the sets wait, and why each went out when it did.
+    pub sync_wait: SyncWait,
     /// Gaps in the sources' streams.
     pub gaps: Vec<Gap>,
     /// Inputs that could not be decoded.
@@ -164,6 +168,22 @@ pub struct Warmup {
     pub poses: u64,
     /// Their end-to-end latency, ms.
     pub latency_ms: Percentiles,
+    /// Their age when recorded, ms: the first sets wait until every sensor is synchronised.
+    pub age_ms: Percentiles,
+}
+
+/// `sync`'s wait budget and what ended each set's wait, from the sets' metadata
+/// (`trigait.sync_wait_budget_nanos`, `trigait.sync_release`).
+#[derive(Debug, Clone, Default, Serialize, PartialEq)]
+pub struct SyncWait {
+    /// How late a sensor's expected frame may be before a set stops waiting for it, ms.
+    pub frame_wait_margin_ms: Option<f64>,
+    /// The longest a set waits for its sensors, ms.
+    pub deadline_ms: Option<f64>,
+    /// Poses by what ended their set's wait: `frames` (every sensor's frames after the instant
+    /// were in), `overdue` (a sensor's frame was overdue and not waited for), `deadline`, `end`
+    /// (the sources ended); `unknown` when the set carried no reason.
+    pub released: BTreeMap<String, u64>,
 }
 
 /// NTP error of one sensor.
@@ -200,6 +220,7 @@ pub struct Samples {
     latency_nanos: Vec<i64>,
     warmup_latency_nanos: Vec<i64>,
     age_nanos: Vec<i64>,
+    warmup_age_nanos: Vec<i64>,
     ntp_abs_err_nanos: BTreeMap<String, Vec<i64>>,
 }
 
@@ -209,6 +230,7 @@ pub struct Handed {
     latency: usize,
     warmup_latency: usize,
     age: usize,
+    warmup_age: usize,
     ntp: BTreeMap<String, usize>,
 }
 
@@ -220,6 +242,7 @@ impl Samples {
         self.latency_nanos.is_empty()
             && self.warmup_latency_nanos.is_empty()
             && self.age_nanos.is_empty()
+            && self.warmup_age_nanos.is_empty()
             && self.ntp_abs_err_nanos.values().all(Vec::is_empty)
     }
 
@@ -228,6 +251,7 @@ impl Samples {
         self.latency_nanos.extend(newer.latency_nanos);
         self.warmup_latency_nanos.extend(newer.warmup_latency_nanos);
         self.age_nanos.extend(newer.age_nanos);
+        self.warmup_age_nanos.extend(newer.warmup_age_nanos);
         for (sensor, errors) in newer.ntp_abs_err_nanos {
             self.ntp_abs_err_nanos
                 .entry(sensor)
@@ -243,6 +267,7 @@ impl Samples {
             latency_nanos: tail(&self.latency_nanos, handed.latency),
             warmup_latency_nanos: tail(&self.warmup_latency_nanos, handed.warmup_latency),
             age_nanos: tail(&self.age_nanos, handed.age),
+            warmup_age_nanos: tail(&self.warmup_age_nanos, handed.warmup_age),
             ntp_abs_err_nanos: self
                 .ntp_abs_err_nanos
                 .iter()
@@ -260,6 +285,7 @@ impl Samples {
             latency: self.latency_nanos.len(),
             warmup_latency: self.warmup_latency_nanos.len(),
             age: self.age_nanos.len(),
+            warmup_age: self.warmup_age_nanos.len(),
             ntp: self
                 .ntp_abs_err_nanos
                 .iter()
@@ -274,6 +300,7 @@ impl Samples {
         summary.latency_ms = Percentiles::of_nanos(&self.latency_nanos);
         summary.warmup.latency_ms = Percentiles::of_nanos(&self.warmup_latency_nanos);
         summary.age_ms = Percentiles::of_nanos(&self.age_nanos);
+        summary.warmup.age_ms = Percentiles::of_nanos(&self.warmup_age_nanos);
         for (id, errors) in &self.ntp_abs_err_nanos {
             let Some(ntp) = summary.ntp.get_mut(id) else {
                 continue;
@@ -321,6 +348,7 @@ impl Stats {
             joints_fused: 0,
             joints_skipped: 0,
             skip_reasons: BTreeMap::new(),
+            sync_wait: SyncWait::default(),
             frames: BTreeMap::new(),
             malformed: 0,
             input_drops: BTreeMap::new(),
@@ -374,7 +402,12 @@ impl Stats {
                 self.samples.latency_nanos.push(now_nanos - sent);
             }
         }
-        self.samples.age_nanos.push(now_nanos - pose.stamp_nanos);
+        let age = now_nanos - pose.stamp_nanos;
+        if warming_up {
+            self.samples.warmup_age_nanos.push(age);
+        } else {
+            self.samples.age_nanos.push(age);
+        }
         self.joints_fused += pose.joints.len() as u64;
         self.joints_skipped += pose.skipped.len() as u64;
         self.empty_poses += u64::from(pose.joints.is_empty());
@@ -413,6 +446,20 @@ impl Stats {
             if !any {
                 self.poses_without_truth += 1;
             }
+        }
+    }
+
+    /// What `sync` said of a pose's set: why it went out when it did, and its wait budget
+    /// (`[frame wait margin, deadline]`, ns).
+    pub fn push_sync_wait(&mut self, release: Option<&str>, budget_nanos: Option<&[i64]>) {
+        *self
+            .sync_wait
+            .released
+            .entry(release.unwrap_or("unknown").to_owned())
+            .or_default() += 1;
+        if let Some(&[margin, deadline]) = budget_nanos {
+            self.sync_wait.frame_wait_margin_ms = Some(margin as f64 * 1e-6);
+            self.sync_wait.deadline_ms = Some(deadline as f64 * 1e-6);
         }
     }
 
@@ -572,8 +619,10 @@ impl Stats {
                 secs: self.warmup_nanos as f64 * 1e-9,
                 poses: self.warmup_poses,
                 latency_ms: Percentiles::default(),
+                age_ms: Percentiles::default(),
             },
             age_ms: Percentiles::default(),
+            sync_wait: self.sync_wait.clone(),
             gaps,
             malformed_inputs: self.malformed,
             input_drops: self.input_drops.clone(),

@@ -295,8 +295,9 @@ fn empty_run_writes_outputs() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// Poses recorded within the warm-up after the first go to `warmup`, the rest to `latency_ms`;
-/// a pose without a sent time counts as a pose but has no latency.
+/// Poses recorded within the warm-up after the first go to `warmup`, the rest to `latency_ms`
+/// and `age_ms`; a pose without a sent time counts as a pose but has no latency. What ended
+/// each set's wait is counted, and the wait budget reported in ms.
 #[test]
 fn warmup_latency_is_reported_apart() {
     let mut stats = Stats::new(1_000_000_000);
@@ -316,6 +317,26 @@ fn warmup_latency_is_reported_apart() {
     assert_eq!(s.latency_ms.count, 2);
     assert!((s.latency_ms.max - 3.0).abs() < 1e-9, "{:?}", s.latency_ms);
     assert!((s.warmup.secs - 1.0).abs() < 1e-12);
+    assert_eq!((s.warmup.age_ms.count, s.age_ms.count), (2, 3));
+    assert!(
+        (s.warmup.age_ms.max - 1086.0).abs() < 1e-9,
+        "{:?}",
+        s.warmup.age_ms
+    );
+    assert!((s.age_ms.max - 1054.0).abs() < 1e-9, "{:?}", s.age_ms);
+    assert!((s.age_ms.p50 - 3.0).abs() < 1e-9, "{:?}", s.age_ms);
+
+    stats.push_sync_wait(Some("frames"), Some(&[10 * ms, 100 * ms]));
+    stats.push_sync_wait(Some("overdue"), Some(&[10 * ms, 100 * ms]));
+    stats.push_sync_wait(Some("frames"), None);
+    stats.push_sync_wait(None, Some(&[1, 2, 3]));
+    let w = stats.summary(2_000 * ms, true).sync_wait;
+    assert_eq!(
+        (w.frame_wait_margin_ms, w.deadline_ms),
+        (Some(10.0), Some(100.0))
+    );
+    let released: Vec<(&str, u64)> = w.released.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    assert_eq!(released, [("frames", 2), ("overdue", 1), ("unknown", 1)]);
 }
 
 /// The loop's happy path: poses and ground truth in, scored in `summary.json` (3 cm off the

@@ -6,7 +6,9 @@
 //! | `INTERPOLATION` | `linear` or `cubic-hermite` | `linear` | resampling under `interpolate` |
 //! | `FUSION_RATE_HZ` | Hz | `30` | fusion instants under `interpolate` |
 //! | `SLOT_MILLIS` | ms | `15` | slot length under `slots` (cycle = (n+1) slots) |
-//! | `LATENCY_DEADLINE_MILLIS` | ms | `100` | a set goes out incomplete after this (must exceed transport delay) |
+//! | `LATENCY_DEADLINE_MILLIS` | ms | `100` | a set goes out incomplete after this at the latest (must exceed transport delay) |
+//! | `FRAME_WAIT_MARGIN_MILLIS` | ms, ≥ 0 | `10` | a set waits for a sensor's next frame until it is this late (its newest frame + its frame period + its usual transport delay + this); then it goes out without waiting for it |
+//! | `BRIDGE_GAPS` | true/false | `false` | `interpolate`: also wait (up to the deadline) for a joint the frames after an instant lack, so gaps up to 100 ms are interpolated across, at the cost of up to 100 ms of age for the sets inside them |
 //! | `NTP_INTERVAL_MILLIS` | ms | `100` | one NTP exchange per sensor this often |
 //! | `TIMESTAMPS` | `ntp` or `recorded` | `ntp` | `recorded`: replaying a trial recording (`kinect-source` `BACKEND: recording`), place each frame on the server stamp the recording's `sync` gave it (`trigait.recorded_server_stamp_nanos`) instead of mapping it with NTP, and take the frames in the order the recording's `sync` received them, its clock moved to each frame's recorded arrival (`trigait.recorded_received_nanos`) instead of the host clock (NTP requests still go out, as the sign that sync listens): with the recorded run's parameters (the same `POLICY`, `FUSION_RATE_HZ`, `LATENCY_DEADLINE_MILLIS`, …) it then makes the same sets from the same frames at any replay speed, the deadline decisions included; a frame recorded unsynchronised is dropped as it was then |
 //! | `SENSORS` | comma list | from the `frame_<id>` inputs | sensor ids, in slot order |
@@ -14,7 +16,7 @@
 //! Inputs: `frame_<id>` and `ntp_<id>` per source, `tick` (a `dora/timer/millis/N` timer, ≤ 20 ms).
 
 use eyre::{bail, eyre};
-use trigait_node_config::{env_number_where, env_parsed, env_value};
+use trigait_node_config::{env_flag, env_number_where, env_parsed, env_value};
 use trigait_sync::{Interpolation, Policy, SyncParams};
 
 /// Env var: policy.
@@ -27,6 +29,10 @@ pub const FUSION_RATE_HZ: &str = "FUSION_RATE_HZ";
 pub const SLOT_MILLIS: &str = "SLOT_MILLIS";
 /// Env var: latency deadline.
 pub const LATENCY_DEADLINE_MILLIS: &str = "LATENCY_DEADLINE_MILLIS";
+/// Env var: how late a sensor's next frame may be before a set stops waiting for it.
+pub const FRAME_WAIT_MARGIN_MILLIS: &str = "FRAME_WAIT_MARGIN_MILLIS";
+/// Env var: wait for joints to reappear and interpolate across their gaps.
+pub const BRIDGE_GAPS: &str = "BRIDGE_GAPS";
 /// Env var: NTP interval.
 pub const NTP_INTERVAL_MILLIS: &str = "NTP_INTERVAL_MILLIS";
 /// Env var: where frames are placed on the server clock.
@@ -71,6 +77,8 @@ impl Config {
     /// From any lookup (tests).
     pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
         let defaults = SyncParams::default();
+        let defaults_bridge = defaults.bridge_gaps;
+        let defaults_margin_ms = defaults.frame_wait_margin_nanos as f64 * 1e-6;
         let policy: Policy = env_parsed(NODE, &lookup, POLICY, defaults.policy)?;
         let interpolation: Interpolation =
             env_parsed(NODE, &lookup, INTERPOLATION, defaults.interpolation)?;
@@ -82,7 +90,17 @@ impl Config {
         }
         params = params
             .with_slot_nanos(millis(&lookup, SLOT_MILLIS, 15.0)?)
-            .with_latency_deadline_nanos(millis(&lookup, LATENCY_DEADLINE_MILLIS, 100.0)?);
+            .with_latency_deadline_nanos(millis(&lookup, LATENCY_DEADLINE_MILLIS, 100.0)?)
+            .with_bridge_gaps(env_flag(NODE, &lookup, BRIDGE_GAPS, defaults_bridge)?);
+        let margin_ms = env_number_where(
+            NODE,
+            &lookup,
+            FRAME_WAIT_MARGIN_MILLIS,
+            defaults_margin_ms,
+            |v| v >= 0.0,
+            "a number of milliseconds, 0 or more",
+        )?;
+        params = params.with_frame_wait_margin_nanos((margin_ms * 1e6).round() as i64);
         let recorded_time = match lookup(TIMESTAMPS).as_deref().map(str::trim) {
             None | Some("ntp") => false,
             Some("recorded") => true,
@@ -92,7 +110,7 @@ impl Config {
         };
         params
             .validate()
-            .map_err(|e| eyre!("{NODE}: invalid sync parameters ({POLICY}, {FUSION_RATE_HZ}, {SLOT_MILLIS}, {LATENCY_DEADLINE_MILLIS}): {e}"))?;
+            .map_err(|e| eyre!("{NODE}: invalid sync parameters ({POLICY}, {FUSION_RATE_HZ}, {SLOT_MILLIS}, {LATENCY_DEADLINE_MILLIS}, {FRAME_WAIT_MARGIN_MILLIS}): {e}"))?;
         let sensors = match lookup(SENSORS) {
             None => None,
             Some(raw) => {

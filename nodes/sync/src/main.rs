@@ -182,6 +182,8 @@ struct State {
     recorded_time: bool,
     /// Under recorded time: each source's replayed frames not taken in yet, in arrival order.
     replayed: ReplayOrder,
+    /// The sources have ended: the sets still held go out now.
+    ending: bool,
 }
 
 /// The event loop.
@@ -216,6 +218,7 @@ pub fn run(
         ended: Vec::new(),
         recorded_time: config.recorded_time,
         replayed: ReplayOrder::default(),
+        ending: false,
         sensors,
         routes,
     };
@@ -254,7 +257,7 @@ pub fn run(
     state.finish(&mut node, stopped)?;
     let c = state.buffer.counters();
     info!(
-        "frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; NTP in {} rejected {} steps {}; sets sent {} ({} incomplete, {} empty), {} unfinished at the stop",
+        "frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; NTP in {} rejected {} steps {}; sets sent {} ({} incomplete, {} empty; {} without waiting for an overdue frame, {} at the deadline), {} unfinished at the stop",
         c.frames_in,
         c.frames_unsynchronised,
         c.frames_late,
@@ -266,6 +269,8 @@ pub fn run(
         state.counters.sets_sent,
         c.sets_incomplete,
         c.sets_empty,
+        c.sets_overdue,
+        c.sets_deadline,
         state.counters.sets_unfinished_at_stop
     );
     Ok(state.counters)
@@ -299,6 +304,7 @@ impl State {
             self.counters.sets_unfinished_at_stop = sets.len() as u64;
             return Ok(());
         }
+        self.ending = true;
         self.send_sets(node, sets, now_nanos())?;
         self.send_timings(node)
     }
@@ -330,21 +336,49 @@ impl State {
         self.send_timings(node)
     }
 
-    /// Sends `sets`, each stamped with the rig and `trigger_sent_nanos`.
+    /// Sends `sets`, each stamped with the rig, `trigger_sent_nanos`, why it went out now and
+    /// the wait budget.
     fn send_sets(
         &mut self,
         node: &mut DoraNode,
         sets: Vec<AlignedSet>,
         trigger_sent_nanos: i64,
     ) -> eyre::Result<()> {
-        emit(
-            node,
-            &self.out,
-            sets,
-            trigger_sent_nanos,
-            self.rig.as_ref(),
-            &mut self.counters,
-        )
+        let params = self.buffer.params();
+        let budget = vec![
+            params.frame_wait_margin_nanos,
+            params.latency_deadline_nanos,
+        ];
+        for set in sets {
+            let release = if self.ending {
+                "end"
+            } else {
+                self.buffer
+                    .release_of(set.seq)
+                    .map_or("end", trigait_sync::Release::name)
+            };
+            let mut metadata = MetadataParameters::default();
+            if let Some(rig) = &self.rig {
+                rig.insert_into(&mut metadata);
+            }
+            metadata.insert(
+                ports::TRIGGER_SENT_NANOS.to_owned(),
+                Parameter::Integer(trigger_sent_nanos),
+            );
+            metadata.insert(
+                ports::SYNC_RELEASE.to_owned(),
+                Parameter::String(release.to_owned()),
+            );
+            metadata.insert(
+                ports::SYNC_WAIT_BUDGET_NANOS.to_owned(),
+                Parameter::ListInt(budget.clone()),
+            );
+            let array = set.encode().context("encoding an aligned set")?;
+            node.send_output(self.out.aligned.clone(), metadata, array)
+                .context("sync: sending aligned_set")?;
+            self.counters.sets_sent += 1;
+        }
+        Ok(())
     }
 
     /// Sends the frame timings gathered since the last send, if any.
@@ -648,29 +682,4 @@ fn timing_of(
         received_nanos: Some(now),
         joints: frame.joints.clone(),
     }
-}
-
-fn emit(
-    node: &mut DoraNode,
-    out: &Outputs,
-    sets: Vec<AlignedSet>,
-    trigger_sent_nanos: i64,
-    rig: Option<&RigStamp>,
-    counters: &mut Counters,
-) -> eyre::Result<()> {
-    for set in sets {
-        let mut params = MetadataParameters::default();
-        if let Some(rig) = rig {
-            rig.insert_into(&mut params);
-        }
-        params.insert(
-            ports::TRIGGER_SENT_NANOS.to_owned(),
-            Parameter::Integer(trigger_sent_nanos),
-        );
-        let array = set.encode().context("encoding an aligned set")?;
-        node.send_output(out.aligned.clone(), params, array)
-            .context("sync: sending aligned_set")?;
-        counters.sets_sent += 1;
-    }
-    Ok(())
 }

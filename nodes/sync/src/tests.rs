@@ -10,12 +10,22 @@ use trigait_sync::{AlignedSet, Policy, SyncParams};
 
 use crate::config::Config;
 
-/// Defaults: interpolate at 30 Hz, 100 ms deadline, NTP every 100 ms, sensors from inputs.
+/// Defaults: interpolate at 30 Hz, a 10 ms wait margin and a 100 ms deadline, gaps not waited
+/// for, NTP every 100 ms, sensors from inputs.
 #[test]
 fn config_defaults_and_policy() {
     let c = Config::from_lookup(lookup(&[])).unwrap();
     assert_eq!(c.params.policy, Policy::Interpolate);
     assert_eq!(c.params.latency_deadline_nanos, 100_000_000);
+    assert_eq!(c.params.frame_wait_margin_nanos, 10_000_000);
+    assert!(!c.params.bridge_gaps);
+    let c = Config::from_lookup(lookup(&[
+        ("FRAME_WAIT_MARGIN_MILLIS", "0"),
+        ("BRIDGE_GAPS", "yes"),
+    ]))
+    .unwrap();
+    assert_eq!(c.params.frame_wait_margin_nanos, 0);
+    assert!(c.params.bridge_gaps);
     assert_eq!(c.ntp_interval_nanos, 100_000_000);
     assert!(c.sensors.is_none());
     let c = Config::from_lookup(lookup(&[
@@ -49,6 +59,8 @@ fn config_errors_name_node_key_and_value() {
         ("NTP_INTERVAL_MILLIS", "x"),
         ("SENSORS", " , "),
         ("TIMESTAMPS", "gps"),
+        ("FRAME_WAIT_MARGIN_MILLIS", "-5"),
+        ("BRIDGE_GAPS", "maybe"),
     ] {
         let text = chain(&Config::from_lookup(lookup(&[(key, raw)])).unwrap_err());
         assert!(text.starts_with("sync: ") && text.contains(key), "{text}");

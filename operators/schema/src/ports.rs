@@ -74,6 +74,14 @@ pub const RECORDED_RECEIVED_NANOS: &str = "trigait.recorded_received_nanos";
 /// `sync` clock when a deadline did); forwarded by `trilaterate`, read by `recorder` for the
 /// end-to-end latency.
 pub const TRIGGER_SENT_NANOS: &str = "trigait.trigger_sent_nanos";
+/// Metadata key (string) on an aligned set: why `sync` handed it on when it did — `frames`
+/// (every sensor's frames after the instant were in), `overdue` (a sensor's next frame was late
+/// past the wait margin and was not waited for), `deadline` (the latency deadline passed) or
+/// `end` (the run ended); forwarded by `trilaterate`, counted by `recorder`.
+pub const SYNC_RELEASE: &str = "trigait.sync_release";
+/// Metadata key (list of 2 integers, ns) on an aligned set: `sync`'s wait budget, the frame
+/// wait margin and the latency deadline; forwarded by `trilaterate`, reported by `recorder`.
+pub const SYNC_WAIT_BUDGET_NANOS: &str = "trigait.sync_wait_budget_nanos";
 
 /// Metadata key (string): the [`RIG_FINGERPRINT`] of the rig the node that first sent the
 /// message read from its `RIG` (sources stamp their frames; `sync` forwards the sources' stamp
@@ -103,6 +111,8 @@ pub const METADATA_KEYS: &[&str] = &[
     RECORDED_UNCERTAINTY_NANOS,
     RECORDED_RECEIVED_NANOS,
     TRIGGER_SENT_NANOS,
+    SYNC_RELEASE,
+    SYNC_WAIT_BUDGET_NANOS,
     RIG_FINGERPRINT,
     RIG_NAME,
     RIG_NODE,

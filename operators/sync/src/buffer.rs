@@ -107,7 +107,47 @@ pub struct SyncCounters {
     pub sets_incomplete: u64,
     /// Instants (`interpolate`) or cycles (`slots`) skipped because no sensor had data there.
     pub sets_empty: u64,
+    /// Sets sent without waiting for a sensor whose next frame was overdue
+    /// ([`SyncParams::frame_wait_margin_nanos`](crate::SyncParams::frame_wait_margin_nanos)).
+    pub sets_overdue: u64,
+    /// Sets sent because their latency deadline passed
+    /// ([`SyncParams::latency_deadline_nanos`](crate::SyncParams::latency_deadline_nanos)).
+    pub sets_deadline: u64,
 }
+
+/// Why a set went out when it did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Release {
+    /// Every sensor had the frames after the instant that its resampling needs.
+    Frames,
+    /// Some sensor's next frame was overdue and was not waited for
+    /// ([`SyncParams::frame_wait_margin_nanos`](crate::SyncParams::frame_wait_margin_nanos)).
+    Overdue,
+    /// The latency deadline passed
+    /// ([`SyncParams::latency_deadline_nanos`](crate::SyncParams::latency_deadline_nanos)).
+    Deadline,
+}
+
+impl Release {
+    /// Every name, as [`Release::name`] gives them.
+    pub const NAMES: &'static [&'static str] = &["frames", "overdue", "deadline"];
+
+    /// A short name for logs and metadata.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Release::Frames => "frames",
+            Release::Overdue => "overdue",
+            Release::Deadline => "deadline",
+        }
+    }
+}
+
+/// Releases remembered for [`SyncBuffer::release_of`].
+const RELEASES_KEPT: usize = 4096;
+
+/// Recent transport delays kept per sensor for [`SensorState::usual_lag_nanos`].
+const LAG_SAMPLES: usize = 16;
 
 #[derive(Debug, Clone)]
 struct SensorState {
@@ -116,6 +156,40 @@ struct SensorState {
     frames: VecDeque<TimedFrame>,
     first_stamp: Option<i64>,
     newest_stamp: Option<i64>,
+    /// Arrival clock − capture stamp of the newest frames (those pushed after an
+    /// [`SyncBuffer::advance_to`]), oldest first.
+    lags: VecDeque<i64>,
+}
+
+impl SensorState {
+    /// The sensor's frame period: the median interval between its buffered frames, if it has
+    /// two with different stamps.
+    fn frame_period_nanos(&self) -> Option<i64> {
+        let mut intervals: Vec<i64> = self
+            .frames
+            .iter()
+            .zip(self.frames.iter().skip(1))
+            .map(|(a, b)| b.server_stamp_nanos.saturating_sub(a.server_stamp_nanos))
+            .filter(|&d| d > 0)
+            .collect();
+        median(&mut intervals)
+    }
+
+    /// How long the sensor's frames usually take to arrive after their capture (median of
+    /// the recent ones; 0 when unknown).
+    fn usual_lag_nanos(&self) -> i64 {
+        let mut lags: Vec<i64> = self.lags.iter().copied().collect();
+        median(&mut lags).unwrap_or(0).max(0)
+    }
+}
+
+/// The median (the lower of the middle two), `None` for no values.
+fn median(values: &mut [i64]) -> Option<i64> {
+    if values.is_empty() {
+        return None;
+    }
+    let mid = (values.len() - 1) / 2;
+    Some(*values.select_nth_unstable(mid).1)
 }
 
 /// Aligns the frames of N sensors on the server clock and groups them into [`AlignedSet`]s
@@ -137,6 +211,8 @@ pub struct SyncBuffer {
     last_stamp_nanos: Option<i64>,
     seq: u64,
     counters: SyncCounters,
+    /// Why each of the latest sets went out, by set seq, oldest first.
+    releases: VecDeque<(u64, Release)>,
 }
 
 impl SyncBuffer {
@@ -157,6 +233,7 @@ impl SyncBuffer {
                 frames: VecDeque::new(),
                 first_stamp: None,
                 newest_stamp: None,
+                lags: VecDeque::new(),
             };
             if sensors.insert(id.clone(), state).is_some() {
                 return Err(Error::DuplicateSensor { sensor_id: id });
@@ -174,6 +251,7 @@ impl SyncBuffer {
             last_stamp_nanos: None,
             seq: 0,
             counters: SyncCounters::default(),
+            releases: VecDeque::new(),
         })
     }
 
@@ -187,6 +265,16 @@ impl SyncBuffer {
     #[must_use]
     pub fn counters(&self) -> &SyncCounters {
         &self.counters
+    }
+
+    /// Why set `seq` went out when it did (the latest few thousand sets are remembered).
+    #[must_use]
+    pub fn release_of(&self, seq: u64) -> Option<Release> {
+        let at = self.releases.partition_point(|&(s, _)| s < seq);
+        self.releases
+            .get(at)
+            .filter(|&&(s, _)| s == seq)
+            .map(|&(_, r)| r)
     }
 
     /// Sensor ids, sorted.
@@ -299,6 +387,12 @@ impl SyncBuffer {
         while state.frames.len() > self.params.max_frames_per_sensor {
             state.frames.pop_front();
             self.counters.frames_evicted += 1;
+        }
+        if let Some(clock) = self.clock_nanos {
+            state.lags.push_back(clock.saturating_sub(stamp));
+            if state.lags.len() > LAG_SAMPLES {
+                state.lags.pop_front();
+            }
         }
         state.first_stamp = Some(state.first_stamp.map_or(stamp, |s| s.min(stamp)));
         state.newest_stamp = Some(state.newest_stamp.map_or(stamp, |s| s.max(stamp)));
@@ -415,14 +509,23 @@ impl SyncBuffer {
         let mut out = Vec::new();
         while let Some(k) = self.next.or_else(|| self.start_index()) {
             self.next = Some(k);
-            if !self.ready(k) {
+            let Some(release) = self.ready(k) else {
                 break;
-            }
+            };
             match self.build(k) {
                 Some(set) => {
                     self.counters.sets_out += 1;
+                    match release {
+                        Release::Frames => {}
+                        Release::Overdue => self.counters.sets_overdue += 1,
+                        Release::Deadline => self.counters.sets_deadline += 1,
+                    }
                     if !set.is_complete() {
                         self.counters.sets_incomplete += 1;
+                    }
+                    self.releases.push_back((set.seq, release));
+                    if self.releases.len() > RELEASES_KEPT {
+                        self.releases.pop_front();
                     }
                     self.last_stamp_nanos = Some(set.stamp_nanos);
                     self.seq += 1;
@@ -474,26 +577,61 @@ impl SyncBuffer {
         })
     }
 
-    fn ready(&self, k: i64) -> bool {
+    /// Whether set `k` may go out now, and why: every sensor has the frames it needs, or the
+    /// ones that lack them are overdue, or the deadline passed.
+    fn ready(&self, k: i64) -> Option<Release> {
         let stamp = self.stamp_of(k);
         if self
             .now_nanos
             .is_some_and(|now| now >= stamp.saturating_add(self.params.latency_deadline_nanos))
         {
-            return true;
+            return Some(Release::Deadline);
         }
-        self.sensors.values().all(|s| match self.params.policy {
-            Policy::Interpolate => self.resample_is_final(s, stamp),
-            Policy::Slots => s
-                .newest_stamp
-                .is_some_and(|t| t >= self.slot_end(k, s.slot)),
-        })
+        let mut release = Release::Frames;
+        for s in self.sensors.values() {
+            let has_frames = match self.params.policy {
+                Policy::Interpolate => self.resample_is_final(s, stamp),
+                Policy::Slots => s
+                    .newest_stamp
+                    .is_some_and(|t| t >= self.slot_end(k, s.slot)),
+            };
+            if has_frames {
+                continue;
+            }
+            if !self.is_overdue(s) {
+                return None;
+            }
+            release = Release::Overdue;
+        }
+        Some(release)
     }
 
-    /// Whether frames still to come (in capture order) could change this sensor's resampling at
-    /// `t`: every joint seen near `t` needs its samples after `t` (one for linear, two for cubic
-    /// Hermite), unless the newest frame is already so far past its last sample that a later one
-    /// would exceed the gap limit.
+    /// Whether the sensor's next frame is later than expected by more than
+    /// [`SyncParams::frame_wait_margin_nanos`]: its newest frame plus one frame period plus its
+    /// usual transport delay is that far behind the present. Asked only once the sets have
+    /// started ([`Self::start_index`] waits up to the deadline for every sensor's first frame),
+    /// so a sensor that has still sent nothing the buffer could use (silent, or not yet
+    /// synchronised) holds no set back.
+    fn is_overdue(&self, s: &SensorState) -> bool {
+        let Some(newest) = s.newest_stamp else {
+            return true;
+        };
+        let Some(now) = self.now_nanos else {
+            return false;
+        };
+        let period = s
+            .frame_period_nanos()
+            .unwrap_or_else(|| self.params.fusion_period_nanos());
+        let expected = newest
+            .saturating_add(period)
+            .saturating_add(s.usual_lag_nanos());
+        now >= expected.saturating_add(self.params.frame_wait_margin_nanos)
+    }
+
+    /// Whether this sensor's resampling at `t` has what it waits for: its frames after `t` (one
+    /// for linear, two for cubic Hermite). With [`SyncParams::bridge_gaps`], also every joint
+    /// seen near `t` needs its own samples after `t`, unless the newest frame is already so far
+    /// past its last sample that a later one would exceed the gap limit.
     fn resample_is_final(&self, s: &SensorState, t: i64) -> bool {
         let need = match self.params.interpolation {
             Interpolation::Linear => 1,
@@ -502,6 +640,16 @@ impl SyncBuffer {
         let Some(newest) = s.newest_stamp.filter(|&n| n >= t) else {
             return false;
         };
+        if !self.params.bridge_gaps {
+            // Frames are kept in stamp order.
+            let after = s
+                .frames
+                .iter()
+                .rev()
+                .take_while(|f| f.server_stamp_nanos >= t)
+                .count();
+            return after >= need;
+        }
         let gap = self.params.max_gap_nanos;
         let near_from = t.saturating_sub(gap);
         let mut last_seen: BTreeMap<Joint, (i64, usize)> = BTreeMap::new();

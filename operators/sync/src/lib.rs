@@ -66,7 +66,7 @@ pub mod ntp;
 mod params;
 mod schedule;
 
-pub use buffer::{AlignedSet, SensorView, SyncBuffer, SyncCounters, TimedFrame};
+pub use buffer::{AlignedSet, Release, SensorView, SyncBuffer, SyncCounters, TimedFrame};
 pub use error::{Error, Result};
 pub use filter::{ClockEstimate, ClockFilter, ClockFilterParams, SampleOutcome, ServerTime};
 pub use ntp::{NtpMeasurement, NtpSample, Rejection};

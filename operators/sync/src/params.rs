@@ -133,8 +133,27 @@ pub struct SyncParams {
     /// Both policies: a set waits for every sensor to have data past it, but no longer than this
     /// after its instant (measured on the newest server-mapped stamp seen, or
     /// [`SyncBuffer::advance_to`](crate::SyncBuffer::advance_to)); then it goes out with the
-    /// sensors available (default 100 ms).
+    /// sensors available (default 100 ms). The hard cap behind
+    /// [`Self::frame_wait_margin_nanos`].
     pub latency_deadline_nanos: i64,
+    /// Both policies: how long past a sensor's *expected* next frame a set still waits for it
+    /// (default 10 ms). The next frame is expected one frame period (the median interval of the
+    /// sensor's buffered frames, or the fusion period before there are two) plus its usual
+    /// transport delay (the median of arrival clock − capture stamp of its recent frames) after
+    /// its newest one. A sensor whose frame is that overdue (lost in transport, a stalled or
+    /// stopped device) no longer holds the set back, so one lost frame costs a set about a
+    /// frame period of age instead of the whole [`Self::latency_deadline_nanos`]; the set is
+    /// built from what that sensor has (a short extrapolation, or the sensor missing). Nor
+    /// does a sensor that has sent nothing usable since the sets started (silent, or not yet
+    /// synchronised): the first set waits up to the deadline for every sensor, the later ones
+    /// do not.
+    pub frame_wait_margin_nanos: i64,
+    /// `interpolate`: also wait (up to [`Self::latency_deadline_nanos`]) for a joint that the
+    /// frames after an instant lack to reappear, so a gap of up to [`Self::max_gap_nanos`] is
+    /// bridged by interpolation rather than the joint being left out of the sets inside it
+    /// (default off: bridging a 100 ms gap costs up to 100 ms of age for every set inside it,
+    /// and the other sensors usually see the joint).
+    pub bridge_gaps: bool,
     /// Frames buffered per sensor at most (default 64; older ones are dropped first).
     pub max_frames_per_sensor: usize,
     /// Once [`SyncBuffer::advance_to`](crate::SyncBuffer::advance_to) has given the server
@@ -157,6 +176,8 @@ impl Default for SyncParams {
             max_gap_nanos: 100_000_000,
             max_extrapolation_nanos: 10_000_000,
             latency_deadline_nanos: 100_000_000,
+            frame_wait_margin_nanos: 10_000_000,
+            bridge_gaps: false,
             max_frames_per_sensor: 64,
             max_future_nanos: 500_000_000,
         }
@@ -241,6 +262,20 @@ impl SyncParams {
         self
     }
 
+    /// Sets [`Self::frame_wait_margin_nanos`].
+    #[must_use]
+    pub fn with_frame_wait_margin_nanos(mut self, margin_nanos: i64) -> Self {
+        self.frame_wait_margin_nanos = margin_nanos;
+        self
+    }
+
+    /// Sets [`Self::bridge_gaps`].
+    #[must_use]
+    pub fn with_bridge_gaps(mut self, bridge_gaps: bool) -> Self {
+        self.bridge_gaps = bridge_gaps;
+        self
+    }
+
     /// Sets [`Self::max_frames_per_sensor`].
     #[must_use]
     pub fn with_max_frames_per_sensor(mut self, max_frames_per_sensor: usize) -> Self {
@@ -305,6 +340,13 @@ impl SyncParams {
             return bad(
                 "latency_deadline_nanos",
                 self.latency_deadline_nanos.to_string(),
+                "non-negative",
+            );
+        }
+        if self.frame_wait_margin_nanos < 0 {
+            return bad(
+                "frame_wait_margin_nanos",
+                self.frame_wait_margin_nanos.to_string(),
                 "non-negative",
             );
         }

@@ -132,19 +132,29 @@ fn error_budget_on_constant_acceleration() {
     }
 }
 
-/// A joint missing for two frames (gap 100 ms ≤ limit) is bridged; missing for four (167 ms) it
-/// is left out of the sets inside the gap while the other joints continue.
+/// With `bridge_gaps`, a joint missing for two frames (gap 100 ms ≤ limit) is bridged; missing
+/// for four (167 ms) it is left out of the sets inside the gap while the other joints continue.
+/// Without it (the default) the sets inside any gap go out without waiting for the joint, and
+/// lack it except within the extrapolation limit of its last sample.
 #[test]
 fn gaps_are_bridged_only_up_to_the_limit() {
     let p = |t: i64| linear(Point3::new(0.0, 0.0, 2.0), Vector3::new(1.0, 0.0, 0.0))(t);
     let lost = |j: i64, n: i64| (20..20 + n).contains(&j);
-    for (n_lost, bridged) in [(2, true), (4, false)] {
-        let (sets, _) = run(1, 40, SyncParams::default(), |_, joint, t| {
+    let bridging = SyncParams::default().with_bridge_gaps(true);
+    for (params, n_lost, bridged) in [
+        (bridging.clone(), 2, true),
+        (bridging, 4, false),
+        (SyncParams::default(), 2, false),
+    ] {
+        let (sets, _) = run(1, 40, params.clone(), |_, joint, t| {
             (joint != Joint::AnkleLeft || !lost(t / PERIOD, n_lost)).then(|| p(t))
         });
+        // Past the extrapolation limit (10 ms) of the last sample before the gap.
         let inside: Vec<&AlignedSet> = sets
             .iter()
-            .filter(|s| s.stamp_nanos > 20 * PERIOD && s.stamp_nanos < (19 + n_lost) * PERIOD)
+            .filter(|s| {
+                s.stamp_nanos > 19 * PERIOD + 10_000_000 && s.stamp_nanos < (19 + n_lost) * PERIOD
+            })
             .collect();
         assert!(!inside.is_empty());
         for set in inside {
@@ -152,7 +162,7 @@ fn gaps_are_bridged_only_up_to_the_limit() {
             let has_ankle = view.joints.iter().any(|s| s.joint == Joint::AnkleLeft);
             assert_eq!(
                 has_ankle, bridged,
-                "lost {n_lost}, set at {}",
+                "lost {n_lost}, set at {}, {params:?}",
                 set.stamp_nanos
             );
             assert!(view.joints.iter().any(|s| s.joint == Joint::HipLeft));
@@ -199,6 +209,119 @@ fn tracking_state_is_the_weaker_of_the_two() {
             set.stamp_nanos
         );
     }
+}
+
+/// Three sensors whose frames reach the buffer 2 ms after capture, the clock read on every
+/// arrival and on a 5 ms timer: a set goes out once every sensor's frame after its instant is
+/// in, so its age (clock when it went out − instant) stays under a frame period plus the
+/// transport delay and the timer. When one sensor's frame is lost, the sets that needed it
+/// wait only until that frame is overdue by the margin (10 ms), not the 100 ms deadline, and
+/// go out with that sensor's joints where its earlier samples reach (extrapolated ≤ 10 ms) or
+/// without it.
+#[test]
+fn a_lost_frame_delays_a_set_by_its_margin_not_the_deadline() {
+    let lag = 2_000_000;
+    let tick = 5_000_000;
+    let ids = ["s0", "s1", "s2"];
+    let p = |t: i64| linear(Point3::new(0.0, 0.0, 2.0), Vector3::new(1.0, 0.0, 0.0))(t);
+    let lost = |i: usize, j: i64| i == 1 && (30..32).contains(&j);
+    for params in [
+        SyncParams::default(),
+        SyncParams::default().with_interpolation(Interpolation::CubicHermite),
+    ] {
+        let mut arrivals: Vec<(i64, Option<TimedFrame>)> = Vec::new();
+        for (i, id) in ids.iter().enumerate() {
+            let phase = 3_000_000 + 11_000_000 * i as i64;
+            for j in (0..60).filter(|&j| !lost(i, j)) {
+                let t = phase + j * PERIOD;
+                let f = timed(id, j as u64, t, &[(Joint::KneeLeft, p(t))]);
+                arrivals.push((t + lag, Some(f)));
+            }
+        }
+        arrivals.extend((0..60 * PERIOD / tick).map(|k| (k * tick, None)));
+        arrivals.sort_by_key(|(at, f)| (*at, f.is_some()));
+        let mut buffer = SyncBuffer::new(ids, params.clone()).unwrap();
+        let mut ages: Vec<(i64, i64, bool)> = Vec::new();
+        for (at, frame) in arrivals {
+            let mut out: Vec<AlignedSet> = buffer.advance_to(at).collect();
+            if let Some(f) = frame {
+                out.extend(buffer.push_timed(f).unwrap());
+            }
+            ages.extend(
+                out.iter()
+                    .map(|s| (s.stamp_nanos, at - s.stamp_nanos, s.is_complete())),
+            );
+        }
+        let need = if params.interpolation == Interpolation::Linear {
+            1
+        } else {
+            2
+        };
+        let s1_lost_from = 3_000_000 + 11_000_000 + 29 * PERIOD;
+        let affected = |stamp: i64| {
+            stamp > s1_lost_from - (need - 1) * PERIOD && stamp <= s1_lost_from + 3 * PERIOD
+        };
+        let steady: Vec<&(i64, i64, bool)> = ages
+            .iter()
+            .filter(|(stamp, ..)| *stamp > 10 * PERIOD && *stamp < 50 * PERIOD)
+            .collect();
+        assert!(steady.len() >= 35, "{}", steady.len());
+        let mut without_s1 = 0;
+        for &&(stamp, age, complete) in &steady {
+            if affected(stamp) {
+                // The newest s1 frame is at most a period before the instant (need − 1 more
+                // after it); the set waits for the next one until period + lag + margin after
+                // that frame, then for the timer.
+                let bound = need * PERIOD + lag + params.frame_wait_margin_nanos + tick;
+                assert!(age <= bound, "set at {stamp}: age {age} > {bound}");
+                without_s1 += usize::from(!complete);
+            } else {
+                let bound = need * PERIOD + lag + tick;
+                assert!(age <= bound, "set at {stamp}: age {age} > {bound}");
+                assert!(complete, "set at {stamp}");
+            }
+        }
+        // Those that s1's earlier frames could not reach went out without it.
+        assert!(without_s1 >= 1, "no set went out without s1");
+        assert_eq!(buffer.counters().sets_deadline, 0);
+        assert!(buffer.counters().sets_overdue >= 1);
+    }
+}
+
+/// A sensor that never sends a frame the buffer can use (never synchronised): the first set
+/// waits the deadline for it, the later ones go out on the other sensors' frames.
+#[test]
+fn a_silent_sensor_holds_back_only_the_first_set() {
+    let p = |t: i64| linear(Point3::new(0.0, 0.0, 2.0), Vector3::new(1.0, 0.0, 0.0))(t);
+    let mut buffer = SyncBuffer::new(["s0", "s1", "silent"], SyncParams::default()).unwrap();
+    let mut released: Vec<(i64, i64)> = Vec::new();
+    for j in 0..30_i64 {
+        for (i, id) in ["s0", "s1"].iter().enumerate() {
+            let t = 5_000_000 + 11_000_000 * i as i64 + j * PERIOD;
+            let arrival = t + 2_000_000;
+            let out: Vec<AlignedSet> = buffer
+                .advance_to(arrival)
+                .chain(
+                    buffer
+                        .push_timed(timed(id, j as u64, t, &[(Joint::KneeLeft, p(t))]))
+                        .unwrap(),
+                )
+                .collect();
+            released.extend(out.iter().map(|s| (s.stamp_nanos, arrival - s.stamp_nanos)));
+        }
+    }
+    assert!(released.len() >= 25, "{}", released.len());
+    let first = released[0].0;
+    for &(stamp, age) in &released {
+        let bound = if stamp == first {
+            110_000_000
+        } else {
+            PERIOD + 2_000_000 + 11_000_000
+        };
+        assert!(age <= bound, "set at {stamp}: age {age}");
+    }
+    let c = buffer.counters();
+    assert_eq!(c.sets_incomplete, c.sets_out);
 }
 
 /// A sensor that stops: it is extrapolated at most `max_extrapolation_nanos` past its last frame,
