@@ -45,6 +45,9 @@ l = s["latency_ms"]
 print(f"  latency          : p50 {l['p50']:.2f} ms, p99 {l['p99']:.2f} ms (frame sent -> pose recorded)")
 w = s["warmup"]
 print(f"  warm-up          : {w['poses']} poses in the first {w['secs']:g} s, latency max {w['latency_ms']['max']:.1f} ms (not in the above)")
+d = s.get("wind_down", {})
+if d.get("poses"):
+    print(f"  wind-down        : {d['poses']} poses after a source's last frame, latency max {d['latency_ms']['max']:.1f} ms (not in the above)")
 a = s["age_ms"]
 print(f"  pose age         : p50 {a['p50']:.1f} ms, p99 {a['p99']:.1f} ms (fusion instant -> recorded)")
 wait = s.get("sync_wait", {})

@@ -63,7 +63,8 @@ fn assert_latency_within_issue_4(s: &Value) {
 
 /// Live means fresh: a pose reaches the recorder at most `p99_ms` after its fusion instant for
 /// 99 % of the steady-state poses (`age_ms`; the first sets wait for every sensor's clock sync
-/// and are reported under `warmup`). `sync` hands a set on once every sensor's frame after the
+/// and are reported under `warmup`, the last ones, while the sources shut down, under
+/// `wind_down`). `sync` hands a set on once every sensor's frame after the
 /// instant is in, or a sensor's frame is overdue; the deadline is the exception, not the rule.
 fn assert_fresh(s: &Value, p99_ms: f64) {
     let age = &s["age_ms"];
@@ -76,6 +77,11 @@ fn assert_fresh(s: &Value, p99_ms: f64) {
     assert!(count("frames") * 2 >= sets, "{wait:#}");
     assert!(count("deadline") * 100 <= sets, "{wait:#}");
     assert_eq!(f(&wait["frame_wait_margin_ms"]), 10.0, "{wait:#}");
+    // The sources end the run themselves: the poses after the first one's last frame are its
+    // wind-down, reported apart, and that is the last second at most, not the run.
+    let wind_down = &s["wind_down"];
+    let poses = wind_down["poses"].as_u64().unwrap();
+    assert!((1..=30).contains(&poses), "{wind_down:#}");
 }
 
 /// Checks shared by every simulated graph: sets flow without drops, every sensor is

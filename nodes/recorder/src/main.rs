@@ -197,6 +197,9 @@ impl Recorder {
         };
         self.stats
             .push_sync_wait(get_string_param(params, ports::SYNC_RELEASE), budget);
+        if matches!(params.get(ports::WIND_DOWN), Some(Parameter::Bool(true))) {
+            self.stats.begin_wind_down();
+        }
         let logged = viz::log_pose(&self.rec, &pose, &truth, sent.map(|sent| now - sent))
             .and_then(|()| self.gait.push(&pose));
         self.ring.push(&pose);

@@ -24,6 +24,8 @@ pub struct Stats {
     first_pose_nanos: Option<i64>,
     pose_stamps_nanos: Option<(i64, i64)>,
     warmup_poses: u64,
+    winding_down: bool,
+    wind_down_poses: u64,
     samples: Samples,
     handed: Handed,
     truth: TruthTrack,
@@ -139,6 +141,8 @@ pub struct Summary {
     pub latency_ms: Percentiles,
     /// The poses of the first moments, whose latency is not the steady state's.
     pub warmup: Warmup,
+    /// The poses of the run's last moments, once a source has ended its stream as planned.
+    pub wind_down: WindDown,
     /// Pose age when recorded (recorder clock − fusion instant) in the steady state (after
     /// [`Self::warmup`]), ms; includes the wait for the frame after the instant that
     /// interpolation needs.
@@ -169,6 +173,20 @@ pub struct Warmup {
     /// Their end-to-end latency, ms.
     pub latency_ms: Percentiles,
     /// Their age when recorded, ms: the first sets wait until every sensor is synchronised.
+    pub age_ms: Percentiles,
+}
+
+/// The end of a run, reported apart: from the set on which `sync` says a source has sent its
+/// planned last frame (`trigait.wind_down`), the sources are shutting down (16 processes
+/// exiting on 2 cores delay the last frames by tens of ms) and `sync` sends the sets that
+/// waited for the ended sources, so these poses say nothing about the steady state.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct WindDown {
+    /// Poses recorded in it.
+    pub poses: u64,
+    /// Their end-to-end latency, ms.
+    pub latency_ms: Percentiles,
+    /// Their age when recorded, ms.
     pub age_ms: Percentiles,
 }
 
@@ -221,6 +239,8 @@ pub struct Samples {
     warmup_latency_nanos: Vec<i64>,
     age_nanos: Vec<i64>,
     warmup_age_nanos: Vec<i64>,
+    wind_down_latency_nanos: Vec<i64>,
+    wind_down_age_nanos: Vec<i64>,
     ntp_abs_err_nanos: BTreeMap<String, Vec<i64>>,
 }
 
@@ -231,6 +251,8 @@ pub struct Handed {
     warmup_latency: usize,
     age: usize,
     warmup_age: usize,
+    wind_down_latency: usize,
+    wind_down_age: usize,
     ntp: BTreeMap<String, usize>,
 }
 
@@ -243,6 +265,8 @@ impl Samples {
             && self.warmup_latency_nanos.is_empty()
             && self.age_nanos.is_empty()
             && self.warmup_age_nanos.is_empty()
+            && self.wind_down_latency_nanos.is_empty()
+            && self.wind_down_age_nanos.is_empty()
             && self.ntp_abs_err_nanos.values().all(Vec::is_empty)
     }
 
@@ -252,6 +276,9 @@ impl Samples {
         self.warmup_latency_nanos.extend(newer.warmup_latency_nanos);
         self.age_nanos.extend(newer.age_nanos);
         self.warmup_age_nanos.extend(newer.warmup_age_nanos);
+        self.wind_down_latency_nanos
+            .extend(newer.wind_down_latency_nanos);
+        self.wind_down_age_nanos.extend(newer.wind_down_age_nanos);
         for (sensor, errors) in newer.ntp_abs_err_nanos {
             self.ntp_abs_err_nanos
                 .entry(sensor)
@@ -268,6 +295,8 @@ impl Samples {
             warmup_latency_nanos: tail(&self.warmup_latency_nanos, handed.warmup_latency),
             age_nanos: tail(&self.age_nanos, handed.age),
             warmup_age_nanos: tail(&self.warmup_age_nanos, handed.warmup_age),
+            wind_down_latency_nanos: tail(&self.wind_down_latency_nanos, handed.wind_down_latency),
+            wind_down_age_nanos: tail(&self.wind_down_age_nanos, handed.wind_down_age),
             ntp_abs_err_nanos: self
                 .ntp_abs_err_nanos
                 .iter()
@@ -286,6 +315,8 @@ impl Samples {
             warmup_latency: self.warmup_latency_nanos.len(),
             age: self.age_nanos.len(),
             warmup_age: self.warmup_age_nanos.len(),
+            wind_down_latency: self.wind_down_latency_nanos.len(),
+            wind_down_age: self.wind_down_age_nanos.len(),
             ntp: self
                 .ntp_abs_err_nanos
                 .iter()
@@ -301,6 +332,8 @@ impl Samples {
         summary.warmup.latency_ms = Percentiles::of_nanos(&self.warmup_latency_nanos);
         summary.age_ms = Percentiles::of_nanos(&self.age_nanos);
         summary.warmup.age_ms = Percentiles::of_nanos(&self.warmup_age_nanos);
+        summary.wind_down.latency_ms = Percentiles::of_nanos(&self.wind_down_latency_nanos);
+        summary.wind_down.age_ms = Percentiles::of_nanos(&self.wind_down_age_nanos);
         for (id, errors) in &self.ntp_abs_err_nanos {
             let Some(ntp) = summary.ntp.get_mut(id) else {
                 continue;
@@ -332,6 +365,8 @@ impl Stats {
             first_pose_nanos: None,
             pose_stamps_nanos: None,
             warmup_poses: 0,
+            winding_down: false,
+            wind_down_poses: 0,
             samples: Samples::default(),
             handed: Handed::default(),
             truth: TruthTrack::new(TRUTH_HORIZON_NANOS, TRUTH_MAX_SPAN_NANOS),
@@ -374,6 +409,12 @@ impl Stats {
         self.truth.at(joint, at_nanos)
     }
 
+    /// From now on the run winds down ([`WindDown`]): the poses that follow are reported
+    /// apart from the steady state.
+    pub fn begin_wind_down(&mut self) {
+        self.winding_down = true;
+    }
+
     /// A fused pose recorded at `now_nanos`; `trigger_sent_nanos` comes from the metadata
     /// `sync` attached.
     pub fn push_pose(&mut self, pose: FusedPose, now_nanos: i64, trigger_sent_nanos: Option<i64>) {
@@ -395,19 +436,26 @@ impl Stats {
         let first = *self.first_pose_nanos.get_or_insert(now_nanos);
         let warming_up = now_nanos - first < self.warmup_nanos;
         self.warmup_poses += u64::from(warming_up);
-        if let Some(sent) = trigger_sent_nanos {
-            if warming_up {
-                self.samples.warmup_latency_nanos.push(now_nanos - sent);
-            } else {
-                self.samples.latency_nanos.push(now_nanos - sent);
-            }
-        }
-        let age = now_nanos - pose.stamp_nanos;
-        if warming_up {
-            self.samples.warmup_age_nanos.push(age);
+        let winding_down = self.winding_down && !warming_up;
+        self.wind_down_poses += u64::from(winding_down);
+        let samples = &mut self.samples;
+        let (latency, age) = if warming_up {
+            (
+                &mut samples.warmup_latency_nanos,
+                &mut samples.warmup_age_nanos,
+            )
+        } else if winding_down {
+            (
+                &mut samples.wind_down_latency_nanos,
+                &mut samples.wind_down_age_nanos,
+            )
         } else {
-            self.samples.age_nanos.push(age);
+            (&mut samples.latency_nanos, &mut samples.age_nanos)
+        };
+        if let Some(sent) = trigger_sent_nanos {
+            latency.push(now_nanos - sent);
         }
+        age.push(now_nanos - pose.stamp_nanos);
         self.joints_fused += pose.joints.len() as u64;
         self.joints_skipped += pose.skipped.len() as u64;
         self.empty_poses += u64::from(pose.joints.is_empty());
@@ -620,6 +668,10 @@ impl Stats {
                 poses: self.warmup_poses,
                 latency_ms: Percentiles::default(),
                 age_ms: Percentiles::default(),
+            },
+            wind_down: WindDown {
+                poses: self.wind_down_poses,
+                ..WindDown::default()
             },
             age_ms: Percentiles::default(),
             sync_wait: self.sync_wait.clone(),

@@ -339,6 +339,32 @@ fn warmup_latency_is_reported_apart() {
     assert_eq!(released, [("frames", 2), ("overdue", 1), ("unknown", 1)]);
 }
 
+/// Once a set says the run winds down, the poses after it go to `wind_down`, apart from the
+/// steady state's latency and age; a pose still in the warm-up stays there.
+#[test]
+fn wind_down_latency_is_reported_apart() {
+    let ms = 1_000_000;
+    let mut stats = Stats::new(100 * ms);
+    stats.push_pose(pose(0, 0, 0.0), 5 * ms, Some(4 * ms));
+    for seq in 1..10 {
+        let at = seq as i64 * 200 * ms;
+        stats.push_pose(pose(seq, at, 0.0), at + 40 * ms, Some(at + 38 * ms));
+    }
+    stats.begin_wind_down();
+    for seq in 10..12 {
+        let at = seq as i64 * 200 * ms;
+        stats.push_pose(pose(seq, at, 0.0), at + 90 * ms, Some(at + 50 * ms));
+    }
+    let s = stats.summary(3_000 * ms, true);
+    assert_eq!((s.warmup.poses, s.wind_down.poses), (1, 2));
+    assert_eq!((s.latency_ms.count, s.age_ms.count), (9, 9));
+    assert!((s.latency_ms.max - 2.0).abs() < 1e-9, "{:?}", s.latency_ms);
+    assert!((s.age_ms.max - 40.0).abs() < 1e-9, "{:?}", s.age_ms);
+    assert_eq!(s.wind_down.latency_ms.count, 2);
+    assert!((s.wind_down.latency_ms.max - 40.0).abs() < 1e-9);
+    assert!((s.wind_down.age_ms.p50 - 90.0).abs() < 1e-9);
+}
+
 /// The loop's happy path: poses and ground truth in, scored in `summary.json` (3 cm off the
 /// truth at every instant), and the trajectory written as a CSV the motion reader reads back.
 #[test]

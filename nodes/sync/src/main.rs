@@ -281,6 +281,9 @@ impl State {
     fn on_source_closed(&mut self, node: &mut DoraNode, sensor: &str) -> eyre::Result<bool> {
         self.closed.push(sensor.to_owned());
         self.take_replayed(node)?;
+        if !self.recorded_time {
+            self.end_stream(node, sensor, now_nanos())?;
+        }
         if self.closed.len() >= self.sensors.len() {
             info!("every source has ended; sending the last sets");
             return Ok(true);
@@ -369,6 +372,9 @@ impl State {
                 ports::SYNC_RELEASE.to_owned(),
                 Parameter::String(release.to_owned()),
             );
+            if !self.ended.is_empty() {
+                metadata.insert(ports::WIND_DOWN.to_owned(), Parameter::Bool(true));
+            }
             metadata.insert(
                 ports::SYNC_WAIT_BUDGET_NANOS.to_owned(),
                 Parameter::ListInt(budget.clone()),
@@ -500,7 +506,31 @@ impl State {
                 warn!("frame dropped: {e}");
             }
         }
+        if self.ended.iter().any(|e| e == sensor) {
+            self.end_stream(node, sensor, sent)?;
+        }
         Ok(())
+    }
+
+    /// `sensor` has sent its last frame: the sets no longer wait for it, and those that
+    /// waited only for it go out now (live time; a replay on recorded stamps takes its frames
+    /// in the recorded order and ends with the flush).
+    fn end_stream(
+        &mut self,
+        node: &mut DoraNode,
+        sensor: &str,
+        trigger_sent_nanos: i64,
+    ) -> eyre::Result<()> {
+        match self.buffer.end_of_stream(sensor) {
+            Ok(sets) => {
+                let sets: Vec<AlignedSet> = sets.collect();
+                self.send_sets(node, sets, trigger_sent_nanos)
+            }
+            Err(e) => {
+                warn!(%sensor, "end of stream: {e}");
+                Ok(())
+            }
+        }
     }
 }
 

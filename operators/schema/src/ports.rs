@@ -97,6 +97,11 @@ pub const RIG_NODE: &str = "trigait.rig_node";
 /// (`STOP_AFTER_SECS`), so `sync` takes the closed input for the run's end, not a failure.
 pub const END_OF_STREAM: &str = "trigait.end_of_stream";
 
+/// Metadata key (bool): on the sets `sync` sends once a source has sent its planned last frame
+/// ([`END_OF_STREAM`]), and on the poses made of them: the run is winding down, and what these
+/// sets' latency says is not the steady state's (the `recorder` reports them apart).
+pub const WIND_DOWN: &str = "trigait.wind_down";
+
 /// Metadata key (list of 4 floats, px: fx, fy, cx, cy) on a `depth_frame` a source has
 /// undistorted: the frame is an ideal distortion-free pinhole with these intrinsics, in
 /// `trigait_camera::Intrinsics`' convention (pixel index u looks along (u − cx)/fx). A frame
@@ -117,6 +122,7 @@ pub const METADATA_KEYS: &[&str] = &[
     RIG_NAME,
     RIG_NODE,
     END_OF_STREAM,
+    WIND_DOWN,
     DEPTH_PINHOLE,
 ];
 

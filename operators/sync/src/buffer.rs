@@ -120,7 +120,8 @@ pub struct SyncCounters {
 pub enum Release {
     /// Every sensor had the frames after the instant that its resampling needs.
     Frames,
-    /// Some sensor's next frame was overdue and was not waited for
+    /// Some sensor's next frame was overdue, or will not come (its stream ended,
+    /// [`SyncBuffer::end_of_stream`]), and was not waited for
     /// ([`SyncParams::frame_wait_margin_nanos`](crate::SyncParams::frame_wait_margin_nanos)).
     Overdue,
     /// The latency deadline passed
@@ -159,6 +160,8 @@ struct SensorState {
     /// Arrival clock − capture stamp of the newest frames (those pushed after an
     /// [`SyncBuffer::advance_to`]), oldest first.
     lags: VecDeque<i64>,
+    /// The sensor has sent its last frame ([`SyncBuffer::end_of_stream`]).
+    ended: bool,
 }
 
 impl SensorState {
@@ -234,6 +237,7 @@ impl SyncBuffer {
                 first_stamp: None,
                 newest_stamp: None,
                 lags: VecDeque::new(),
+                ended: false,
             };
             if sensors.insert(id.clone(), state).is_some() {
                 return Err(Error::DuplicateSensor { sensor_id: id });
@@ -275,6 +279,21 @@ impl SyncBuffer {
             .get(at)
             .filter(|&&(s, _)| s == seq)
             .map(|&(_, r)| r)
+    }
+
+    /// Tells the buffer `sensor_id` has sent its last frame (its source ended its stream, or
+    /// its input closed), and returns the sets that became ready: from now on no set waits for
+    /// that sensor's next frame, which will not come, and its frames so far still count where
+    /// they reach. An unknown sensor is an error.
+    pub fn end_of_stream(
+        &mut self,
+        sensor_id: &str,
+    ) -> Result<impl Iterator<Item = AlignedSet> + use<>> {
+        let Some(state) = self.sensors.get_mut(sensor_id) else {
+            return Err(self.unknown(sensor_id));
+        };
+        state.ended = true;
+        Ok(self.drain().into_iter())
     }
 
     /// Sensor ids, sorted.
@@ -611,8 +630,11 @@ impl SyncBuffer {
     /// usual transport delay is that far behind the present. Asked only once the sets have
     /// started ([`Self::start_index`] waits up to the deadline for every sensor's first frame),
     /// so a sensor that has still sent nothing the buffer could use (silent, or not yet
-    /// synchronised) holds no set back.
+    /// synchronised) holds no set back, and neither does one whose stream has ended.
     fn is_overdue(&self, s: &SensorState) -> bool {
+        if s.ended {
+            return true;
+        }
         let Some(newest) = s.newest_stamp else {
             return true;
         };

@@ -324,6 +324,85 @@ fn a_silent_sensor_holds_back_only_the_first_set() {
     assert_eq!(c.sets_incomplete, c.sets_out);
 }
 
+/// A sensor whose source ends its stream (the last frame says so, or its input closes): the
+/// sets after its last frame do not wait for a next frame that will not come; each goes out as
+/// soon as the other sensors' frames after its instant are in, as young as while all three
+/// streamed, and holds the ended sensor's joints only where its last frames reach. Without the
+/// notice the same sets wait until that sensor is overdue.
+#[test]
+fn an_ended_stream_is_not_waited_for() {
+    let p = |t: i64| linear(Point3::new(0.0, 0.0, 2.0), Vector3::new(1.0, 0.0, 0.0))(t);
+    let lag = 2_000_000;
+    let last = 29_i64;
+    let ages = |notice: bool| {
+        let mut buffer = SyncBuffer::new(["s0", "s1", "s2"], SyncParams::default()).unwrap();
+        let mut arrivals: Vec<(i64, &str, i64)> = Vec::new();
+        for (i, id) in ["s0", "s1", "s2"].into_iter().enumerate() {
+            let phase = 3_000_000 + 11_000_000 * i as i64;
+            for j in (0..60).filter(|&j| id != "s2" || j <= last) {
+                arrivals.push((phase + j * PERIOD + lag, id, j));
+            }
+        }
+        arrivals.sort_unstable();
+        let mut released: Vec<(i64, i64, bool)> = Vec::new();
+        for (at, id, j) in arrivals {
+            let t = at - lag;
+            let mut out: Vec<AlignedSet> = buffer.advance_to(at).collect();
+            out.extend(
+                buffer
+                    .push_timed(timed(id, j as u64, t, &[(Joint::KneeLeft, p(t))]))
+                    .unwrap(),
+            );
+            if notice && id == "s2" && j == last {
+                out.extend(buffer.end_of_stream("s2").unwrap());
+            }
+            released.extend(out.iter().map(|s| {
+                (
+                    s.stamp_nanos,
+                    at - s.stamp_nanos,
+                    s.sensors.contains_key("s2"),
+                )
+            }));
+        }
+        assert!(buffer.end_of_stream("s9").is_err(), "an unknown sensor");
+        released
+    };
+    let last_s2 = 3_000_000 + 22_000_000 + last * PERIOD;
+    let worst_after = |released: &[(i64, i64, bool)]| {
+        released
+            .iter()
+            .filter(|(stamp, ..)| *stamp > last_s2 && *stamp < 55 * PERIOD)
+            .map(|&(_, age, _)| age)
+            .max()
+            .unwrap()
+    };
+    let with_notice = ages(true);
+    let steady_before = with_notice
+        .iter()
+        .filter(|(stamp, ..)| *stamp > 5 * PERIOD && *stamp < last_s2 - PERIOD)
+        .map(|&(_, age, _)| age)
+        .max()
+        .unwrap();
+    let after = worst_after(&with_notice);
+    assert!(
+        after <= steady_before,
+        "after the end {after} ns, before {steady_before} ns"
+    );
+    for &(stamp, _, has_s2) in &with_notice {
+        if stamp > last_s2 + 10_000_000 {
+            assert!(!has_s2, "set at {stamp} holds s2 past its reach");
+        }
+        if stamp <= last_s2 {
+            assert!(has_s2, "set at {stamp} lacks s2");
+        }
+    }
+    let without_notice = worst_after(&ages(false));
+    assert!(
+        without_notice >= after + SyncParams::default().frame_wait_margin_nanos,
+        "without the notice {without_notice} ns, with it {after} ns"
+    );
+}
+
 /// A sensor that stops: it is extrapolated at most `max_extrapolation_nanos` past its last frame,
 /// then reported missing; sets keep coming (after the latency deadline) with the others.
 #[test]
