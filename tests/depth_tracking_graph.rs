@@ -13,8 +13,19 @@ mod common;
 
 use common::{LOCK, Run, f, finish, spawn_graph, workspace};
 
-fn run_for_12s(file: &str) -> Run {
-    let graph = std::fs::read_to_string(workspace().join(file)).expect("reading the graph");
+/// `file` run for 12 s; `lane` gives every simulated source `LANE_M` (metres).
+fn run_for_12s(file: &str, lane: Option<&str>) -> Run {
+    let mut graph = std::fs::read_to_string(workspace().join(file)).expect("reading the graph");
+    if let Some(lane) = lane {
+        assert!(
+            graph.contains("      BACKEND: sim\n"),
+            "{file}: no simulated source"
+        );
+        graph = graph.replace(
+            "      BACKEND: sim\n",
+            &format!("      BACKEND: sim\n      LANE_M: \"{lane}\"\n"),
+        );
+    }
     let name = format!("depth-tracking-test-{}", file.replace(['/', '.'], "-"));
     let (child, dir) = spawn_graph(&name, &graph, "12s");
     let run = finish(child, dir);
@@ -24,22 +35,22 @@ fn run_for_12s(file: &str) -> Run {
 }
 
 /// The fused RMSE of the depth-tracking graph against that of the skeleton-level default
-/// graph (`dataflow.yml`), every sensor's frames reaching sync through its tracker, and sets
-/// fused for most of the run.
+/// graph (`dataflow.yml`) on the same walk (out and back on two lanes 1 m apart, as
+/// `depth-tracking.yml` walks), every sensor's frames reaching sync through its tracker, and
+/// sets fused for most of the walking (the walker turns, unseen, 2 of every 7 s).
 ///
-/// The goal is 1.5× the skeleton graph's RMSE; it is not met. Measured, two runs (load average
-/// 5 and 0.1): 0.092 and 0.104 m against 0.023 and 0.020 m, 4.0× and 5.2×; sets fused from
-/// three sensors 1323 and 1471 of about 2550 joints. The host no longer explains the gap: with
-/// every instant tracked on all three sensors and no resampling (`operators/fusion/tests/
-/// tracked_depth.rs`) the fused RMSE is still 0.10 m, from the tracker's ankles (9–13 cm) and
-/// feet (15–17 cm); hips and knees are 4 cm. This test pins the measured state (≤ 7×, so a
-/// broken camera convention or time mapping, metres off, fails it) until those tails are cut.
+/// The goal is 1.5× the skeleton graph's RMSE; it is not met. Measured, three runs: 0.048,
+/// 0.029 and 0.038 m against 0.021, 0.018 and 0.021 m, 2.35×, 1.58× and 1.76×; 211–224 sets.
+/// On one line (the walker spinning 180° between two samples at each end) it was 4.0–5.2×.
+/// The rest is the tracker's ankles (`operators/fusion/tests/tracked_depth.rs`). This test
+/// pins the measured state (≤ 3.5×, so a broken camera convention or time mapping, metres
+/// off, fails it) until those tails are cut.
 #[test]
 fn depth_tracking_rmse_against_the_skeleton_graph() {
     let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    let depth = run_for_12s("dataflows/depth-tracking.yml");
+    let depth = run_for_12s("dataflows/depth-tracking.yml", None);
     let d = depth.summary();
-    let skeleton = run_for_12s("dataflow.yml");
+    let skeleton = run_for_12s("dataflow.yml", Some("1.0"));
     let s = skeleton.summary();
     let (rmse_depth, rmse_skeleton) = (f(&d["rmse_all_m"]), f(&s["rmse_all_m"]));
     eprintln!(
@@ -60,13 +71,13 @@ fn depth_tracking_rmse_against_the_skeleton_graph() {
         eprintln!("{line}");
     }
     let sets = d["sets_fused"].as_u64().unwrap();
-    assert!(sets >= 200, "only {sets} sets in 12 s at 30 Hz: {d:#}");
+    assert!(sets >= 150, "only {sets} sets in 12 s at 30 Hz: {d:#}");
     for k in ["k1", "k2", "k3"] {
         let frames = d["frames_in"][k].as_u64().unwrap_or(0);
         assert!(frames >= 150, "{k}: {frames} frames in 12 s: {d:#}");
     }
     assert!(
-        rmse_depth <= 7.0 * rmse_skeleton,
+        rmse_depth <= 3.5 * rmse_skeleton,
         "depth-tracking RMSE {rmse_depth} m vs the skeleton graph's {rmse_skeleton} m"
     );
     assert!(
