@@ -231,28 +231,69 @@ pub struct NtpSummary {
 /// p50/p99/max of a sample, ms, by the one percentile rule.
 pub use trigait_scoring::Percentiles;
 
-/// The samples whose percentiles `summary.json` reports: end-to-end latency (steady state and
-/// warm-up), age, and each sensor's |NTP mapping error|, ns, in arrival order.
+/// The latency and age samples of one part of a run (the warm-up, the steady state or the
+/// wind-down), ns, in arrival order.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PhaseSamples {
+    latency_nanos: Vec<i64>,
+    age_nanos: Vec<i64>,
+}
+
+impl PhaseSamples {
+    #[cfg(test)]
+    fn is_empty(&self) -> bool {
+        self.latency_nanos.is_empty() && self.age_nanos.is_empty()
+    }
+
+    fn absorb(&mut self, newer: PhaseSamples) {
+        self.latency_nanos.extend(newer.latency_nanos);
+        self.age_nanos.extend(newer.age_nanos);
+    }
+
+    /// How many of each series there are: `(latency, age)`.
+    fn lens(&self) -> (usize, usize) {
+        (self.latency_nanos.len(), self.age_nanos.len())
+    }
+
+    /// The samples after the first `(latency, age)`.
+    fn since(&self, (latency, age): (usize, usize)) -> PhaseSamples {
+        PhaseSamples {
+            latency_nanos: tail(&self.latency_nanos, latency),
+            age_nanos: tail(&self.age_nanos, age),
+        }
+    }
+
+    /// Their percentiles, ms: `(latency, age)`.
+    fn percentiles(&self) -> (Percentiles, Percentiles) {
+        (
+            Percentiles::of_nanos(&self.latency_nanos),
+            Percentiles::of_nanos(&self.age_nanos),
+        )
+    }
+}
+
+/// `v` after its first `from` values.
+fn tail(v: &[i64], from: usize) -> Vec<i64> {
+    v.get(from..).unwrap_or_default().to_vec()
+}
+
+/// The samples whose percentiles `summary.json` reports: end-to-end latency and age in the
+/// steady state, the warm-up and the wind-down, and each sensor's |NTP mapping error|, ns, in
+/// arrival order.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Samples {
-    latency_nanos: Vec<i64>,
-    warmup_latency_nanos: Vec<i64>,
-    age_nanos: Vec<i64>,
-    warmup_age_nanos: Vec<i64>,
-    wind_down_latency_nanos: Vec<i64>,
-    wind_down_age_nanos: Vec<i64>,
+    steady: PhaseSamples,
+    warmup: PhaseSamples,
+    wind_down: PhaseSamples,
     ntp_abs_err_nanos: BTreeMap<String, Vec<i64>>,
 }
 
 /// How many of each series of [`Samples`] were handed on already.
 #[derive(Debug, Clone, Default)]
 pub struct Handed {
-    latency: usize,
-    warmup_latency: usize,
-    age: usize,
-    warmup_age: usize,
-    wind_down_latency: usize,
-    wind_down_age: usize,
+    steady: (usize, usize),
+    warmup: (usize, usize),
+    wind_down: (usize, usize),
     ntp: BTreeMap<String, usize>,
 }
 
@@ -261,24 +302,17 @@ impl Samples {
     #[cfg(test)]
     #[must_use]
     pub fn is_empty(&self) -> bool {
-        self.latency_nanos.is_empty()
-            && self.warmup_latency_nanos.is_empty()
-            && self.age_nanos.is_empty()
-            && self.warmup_age_nanos.is_empty()
-            && self.wind_down_latency_nanos.is_empty()
-            && self.wind_down_age_nanos.is_empty()
+        self.steady.is_empty()
+            && self.warmup.is_empty()
+            && self.wind_down.is_empty()
             && self.ntp_abs_err_nanos.values().all(Vec::is_empty)
     }
 
     /// Appends `newer`'s samples after these.
     pub fn absorb(&mut self, newer: Samples) {
-        self.latency_nanos.extend(newer.latency_nanos);
-        self.warmup_latency_nanos.extend(newer.warmup_latency_nanos);
-        self.age_nanos.extend(newer.age_nanos);
-        self.warmup_age_nanos.extend(newer.warmup_age_nanos);
-        self.wind_down_latency_nanos
-            .extend(newer.wind_down_latency_nanos);
-        self.wind_down_age_nanos.extend(newer.wind_down_age_nanos);
+        self.steady.absorb(newer.steady);
+        self.warmup.absorb(newer.warmup);
+        self.wind_down.absorb(newer.wind_down);
         for (sensor, errors) in newer.ntp_abs_err_nanos {
             self.ntp_abs_err_nanos
                 .entry(sensor)
@@ -289,14 +323,10 @@ impl Samples {
 
     /// The samples after those `handed` counts.
     fn since(&self, handed: &Handed) -> Samples {
-        let tail = |v: &[i64], from: usize| v.get(from..).unwrap_or_default().to_vec();
         Samples {
-            latency_nanos: tail(&self.latency_nanos, handed.latency),
-            warmup_latency_nanos: tail(&self.warmup_latency_nanos, handed.warmup_latency),
-            age_nanos: tail(&self.age_nanos, handed.age),
-            warmup_age_nanos: tail(&self.warmup_age_nanos, handed.warmup_age),
-            wind_down_latency_nanos: tail(&self.wind_down_latency_nanos, handed.wind_down_latency),
-            wind_down_age_nanos: tail(&self.wind_down_age_nanos, handed.wind_down_age),
+            steady: self.steady.since(handed.steady),
+            warmup: self.warmup.since(handed.warmup),
+            wind_down: self.wind_down.since(handed.wind_down),
             ntp_abs_err_nanos: self
                 .ntp_abs_err_nanos
                 .iter()
@@ -311,12 +341,9 @@ impl Samples {
     /// What every series holds now.
     fn handed(&self) -> Handed {
         Handed {
-            latency: self.latency_nanos.len(),
-            warmup_latency: self.warmup_latency_nanos.len(),
-            age: self.age_nanos.len(),
-            warmup_age: self.warmup_age_nanos.len(),
-            wind_down_latency: self.wind_down_latency_nanos.len(),
-            wind_down_age: self.wind_down_age_nanos.len(),
+            steady: self.steady.lens(),
+            warmup: self.warmup.lens(),
+            wind_down: self.wind_down.lens(),
             ntp: self
                 .ntp_abs_err_nanos
                 .iter()
@@ -328,12 +355,9 @@ impl Samples {
     /// Sets the percentiles of `summary` (and each sensor's `frames_checked` and
     /// `share_below_1ms`) from these samples: O(n log n) in the samples.
     pub fn fill(&self, summary: &mut Summary) {
-        summary.latency_ms = Percentiles::of_nanos(&self.latency_nanos);
-        summary.warmup.latency_ms = Percentiles::of_nanos(&self.warmup_latency_nanos);
-        summary.age_ms = Percentiles::of_nanos(&self.age_nanos);
-        summary.warmup.age_ms = Percentiles::of_nanos(&self.warmup_age_nanos);
-        summary.wind_down.latency_ms = Percentiles::of_nanos(&self.wind_down_latency_nanos);
-        summary.wind_down.age_ms = Percentiles::of_nanos(&self.wind_down_age_nanos);
+        (summary.latency_ms, summary.age_ms) = self.steady.percentiles();
+        (summary.warmup.latency_ms, summary.warmup.age_ms) = self.warmup.percentiles();
+        (summary.wind_down.latency_ms, summary.wind_down.age_ms) = self.wind_down.percentiles();
         for (id, errors) in &self.ntp_abs_err_nanos {
             let Some(ntp) = summary.ntp.get_mut(id) else {
                 continue;
@@ -438,24 +462,17 @@ impl Stats {
         self.warmup_poses += u64::from(warming_up);
         let winding_down = self.winding_down && !warming_up;
         self.wind_down_poses += u64::from(winding_down);
-        let samples = &mut self.samples;
-        let (latency, age) = if warming_up {
-            (
-                &mut samples.warmup_latency_nanos,
-                &mut samples.warmup_age_nanos,
-            )
+        let phase = if warming_up {
+            &mut self.samples.warmup
         } else if winding_down {
-            (
-                &mut samples.wind_down_latency_nanos,
-                &mut samples.wind_down_age_nanos,
-            )
+            &mut self.samples.wind_down
         } else {
-            (&mut samples.latency_nanos, &mut samples.age_nanos)
+            &mut self.samples.steady
         };
         if let Some(sent) = trigger_sent_nanos {
-            latency.push(now_nanos - sent);
+            phase.latency_nanos.push(now_nanos - sent);
         }
-        age.push(now_nanos - pose.stamp_nanos);
+        phase.age_nanos.push(now_nanos - pose.stamp_nanos);
         self.joints_fused += pose.joints.len() as u64;
         self.joints_skipped += pose.skipped.len() as u64;
         self.empty_poses += u64::from(pose.joints.is_empty());

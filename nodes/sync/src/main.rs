@@ -281,14 +281,16 @@ impl State {
     fn on_source_closed(&mut self, node: &mut DoraNode, sensor: &str) -> eyre::Result<bool> {
         self.closed.push(sensor.to_owned());
         self.take_replayed(node)?;
-        if !self.recorded_time {
+        // A source that ended as planned was let go with its last frame.
+        let ended = self.ended.iter().any(|e| e == sensor);
+        if !self.recorded_time && !ended {
             self.end_stream(node, sensor, now_nanos())?;
         }
         if self.closed.len() >= self.sensors.len() {
             info!("every source has ended; sending the last sets");
             return Ok(true);
         }
-        if self.ended.iter().any(|e| e == sensor) {
+        if ended {
             info!(%sensor, "source ended its stream");
         } else {
             warn!(%sensor, "source stopped; its sets go out incomplete from now on");
@@ -456,10 +458,11 @@ impl State {
         array: &dyn Array,
         now: i64,
     ) -> eyre::Result<()> {
-        if matches!(
+        let last_frame = matches!(
             params.get(ports::END_OF_STREAM),
             Some(Parameter::Bool(true))
-        ) {
+        );
+        if last_frame {
             self.ended.push(sensor.to_owned());
         }
         let frame = match SkeletonFrameMessage::decode(array) {
@@ -506,7 +509,7 @@ impl State {
                 warn!("frame dropped: {e}");
             }
         }
-        if self.ended.iter().any(|e| e == sensor) {
+        if last_frame {
             self.end_stream(node, sensor, sent)?;
         }
         Ok(())
