@@ -35,6 +35,10 @@ pub struct Args {
     /// default: an occluded leg is often inferred far from the real one).
     #[arg(long)]
     pub keep_inferred: bool,
+    /// Frame rate of Kinect SDK skeleton text without time stamps (read at the Kinect's 30
+    /// frames/s otherwise), 1 to 1000 Hz. Files with their own rate or time stamps refuse it.
+    #[arg(long, value_name = "HZ", value_parser = crate::ranges::number(1.0, 1000.0, "Hz"))]
+    pub rate: Option<f64>,
     /// Find the events on the joint centres (ankles, feet, pelvis) even when the file has heel
     /// and toe markers, as on a joint export of it.
     #[arg(long)]
@@ -267,6 +271,7 @@ pub fn load_input(
     path: &Path,
     keep_inferred: bool,
     joint_centres: bool,
+    rate_hz: Option<f64>,
 ) -> eyre::Result<GaitInput> {
     let name = path
         .file_name()
@@ -277,9 +282,23 @@ pub fn load_input(
     if is_txt {
         let frames = trigait_motion::read_sdk_skeletons(path)
             .wrap_err_with(|| format!("reading Kinect skeletons from {}", path.display()))?;
-        let sdk = trigait_motion::sdk_clip(&name, &frames, SDK_RATE_HZ, !keep_inferred)?;
+        let timed = !frames.is_empty() && frames.iter().all(|f| f.time_ms.is_some());
+        if timed && rate_hz.is_some() {
+            eyre::bail!(
+                "--rate: {} has time stamps, which place its frames; the option is for \
+                 skeleton text without them",
+                path.display()
+            );
+        }
+        let rate = rate_hz.unwrap_or(SDK_RATE_HZ);
+        let sdk = trigait_motion::sdk_clip(&name, &frames, rate, !keep_inferred)?;
+        let clock = match (timed, rate_hz) {
+            (true, _) => "placed by their time stamps",
+            (false, Some(_)) => "untimed, rate given with --rate",
+            (false, None) => "untimed, rate assumed (--rate to give it)",
+        };
         let mut notes = vec![format!(
-            "Kinect v2 SDK skeletons at {SDK_RATE_HZ:.0} Hz, camera space turned Z up; \
+            "Kinect v2 SDK skeletons at {rate:.0} Hz ({clock}), camera space turned Z up; \
              {} repeated and {} missing frame numbers; {} inferred joint samples {}",
             sdk.repeated_frames,
             sdk.missing_frames,
@@ -295,6 +314,12 @@ pub fn load_input(
             landmarks,
             notes,
         });
+    }
+    if rate_hz.is_some() {
+        eyre::bail!(
+            "--rate is for Kinect SDK skeleton text without time stamps; {} states its own rate",
+            path.display()
+        );
     }
     if trigait_motion::MotionFormat::from_path(path)? == trigait_motion::MotionFormat::Csv {
         let clip = load_clip(path)?;
@@ -406,7 +431,12 @@ fn filtered(input: GaitInput, filter: &Filter, file: &Path) -> eyre::Result<Gait
 
 /// Reads, filters and analyses `args.file`: the input (for plots) and the analysis.
 pub fn analyse_file(args: &Args) -> eyre::Result<(GaitInput, GaitAnalysis)> {
-    let input = load_input(&args.file, args.keep_inferred, args.joint_centres)?;
+    let input = load_input(
+        &args.file,
+        args.keep_inferred,
+        args.joint_centres,
+        args.rate,
+    )?;
     let input = filtered(input, &args.filter, &args.file)?;
     let params = gait_params(args);
     let analysis = trigait_gait::analyse_landmarks(&input.landmarks, &params)
@@ -644,6 +674,22 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
         out.push(format!(
             "{} proposed events dropped: the foot was airborne",
             a.rejected_events
+        ));
+    }
+    if a.timing.implausible {
+        let median = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |s| format!("{s:.2} s"));
+        out.push(format!(
+            "TIMING IMPLAUSIBLE at {:.0} Hz: median swing {} over {} swings, median step {} over \
+             {} steps; no human leg swings in under {:.2} s or steps in under {:.2} s, so the \
+             file's time base is probably wrong and every duration, cadence and speed with it \
+             (for untimed Kinect text, give the true frame rate with --rate)",
+            a.rate_hz,
+            median(a.timing.median_swing_secs),
+            a.timing.swings,
+            median(a.timing.median_step_secs),
+            a.timing.steps,
+            trigait_gait::timing::MIN_HUMAN_SWING_SECS,
+            trigait_gait::timing::MIN_HUMAN_STEP_SECS,
         ));
     }
     out.push(if a.flights.is_empty() {

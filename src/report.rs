@@ -36,6 +36,9 @@ pub struct Args {
     /// Kinect SDK skeletons: keep joints the tracker only inferred.
     #[arg(long)]
     pub keep_inferred: bool,
+    /// Frame rate of Kinect SDK text without time stamps (30 Hz otherwise).
+    #[arg(long, value_name = "HZ", value_parser = crate::ranges::number(1.0, 1000.0, "Hz"))]
+    pub rate: Option<f64>,
 }
 
 fn parse_filter(spec: &str) -> Result<Filter, String> {
@@ -50,6 +53,7 @@ impl Args {
             treadmill: self.treadmill,
             overground: self.overground,
             keep_inferred: self.keep_inferred,
+            rate: self.rate,
             joint_centres: false,
             filter: self.filter,
             json: false,
@@ -261,6 +265,7 @@ mod tests {
             treadmill: None,
             overground: false,
             keep_inferred: false,
+            rate: None,
         };
         let gait_args = args.gait_args();
         let (input, analysis) = gait::analyse_file(&gait_args).unwrap();

@@ -436,3 +436,62 @@ fn issue_5_kinect_pipeline_matches_markers() {
         }
     }
 }
+
+/// Kinect text without time stamps is read at 30 Hz and its rhythm judged there: the Straight
+/// log's swings are too quick for a human leg at that rate, which the JSON's `timing` and a
+/// note say. `--rate` gives such a log its true clock; files that place their own frames (a
+/// timed Kinect log, C3D) refuse it, and a rate that is not a rate is an error.
+#[test]
+fn an_untimed_log_gets_its_clock_checked_and_given() {
+    let Some(straight) =
+        trigait_test_data::shared_file("kinect-v2-skeleton-replay/JointsInfo_Straight.txt")
+    else {
+        return;
+    };
+    let assumed = json(&straight, &[]);
+    assert_eq!(assumed["rate_hz"].as_f64(), Some(30.0));
+    assert_eq!(assumed["timing"]["implausible"].as_bool(), Some(true));
+    assert!(assumed["timing"]["median_swing_secs"].as_f64().unwrap() < 0.25);
+    let text = trigait(&["gait", straight.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&text.stdout);
+    assert!(stdout.contains("TIMING IMPLAUSIBLE at 30 Hz"), "{stdout}");
+    assert!(
+        stdout.contains("rate assumed (--rate to give it)"),
+        "{stdout}"
+    );
+
+    let given = json(&straight, &["--rate", "10"]);
+    assert_eq!(given["rate_hz"].as_f64(), Some(10.0));
+    let duration = given["duration_secs"].as_f64().unwrap();
+    assert!((duration - 8.4).abs() < 1e-9, "{duration}");
+    assert!(
+        given["notes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|n| n.as_str().unwrap().contains("rate given with --rate")),
+        "{}",
+        given["notes"]
+    );
+
+    for bad in ["0", "nan", "1e9"] {
+        fails_with(
+            &["gait", straight.to_str().unwrap(), "--rate", bad],
+            "1..=1000 Hz",
+        );
+    }
+    if let Some(chu) =
+        trigait_test_data::shared_file("kinect-v2-vicon-chu-walk/JointsInfo_before_CHU_test.txt")
+    {
+        fails_with(
+            &["gait", chu.to_str().unwrap(), "--rate", "15"],
+            "has time stamps",
+        );
+    }
+    if let Some(cmu) = trigait_test_data::shared_file("mocap-cmu-07_01/07_01.c3d") {
+        fails_with(
+            &["gait", cmu.to_str().unwrap(), "--rate", "15"],
+            "states its own rate",
+        );
+    }
+}

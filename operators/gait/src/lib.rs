@@ -35,7 +35,9 @@
 //!    (Casiez et al. 2012) for noisy trajectories; [`plot`] draws trajectories with events and a
 //!    footfall diagram as SVG and PNG, in memory.
 //! 6. [`angles`] gives sagittal hip and knee flexion per gait cycle, normalised to 0–100 %.
-//! 7. [`stream`] holds the *causal* filters a live dataflow can run (One-Euro, a causal
+//! 7. [`timing`] checks that the swings and steps keep a human rhythm at the clip's rate, which
+//!    flags a wrong time base (untimed Kinect text read at 30 Hz).
+//! 8. [`stream`] holds the *causal* filters a live dataflow can run (One-Euro, a causal
 //!    Butterworth), one state per joint, and [`LiveGait`] runs the event detection over a growing
 //!    stream of poses (the recorder node's gait events and `summary.json` section).
 //!
@@ -73,6 +75,7 @@ pub mod plot;
 mod segment;
 mod signal;
 pub mod stream;
+pub mod timing;
 pub mod treadmill;
 
 pub use angles::{CYCLE_SAMPLES, FlexionCycle, flexion_cycles, mean_curve, sagittal_flexion_deg};
@@ -93,4 +96,5 @@ pub use segment::{
     ExcludedPhase, ExclusionReason, SegmentParams, Segmentation, WalkingSegment, segment_walk,
 };
 pub use signal::{HeelSource, Landmarks};
+pub use timing::Timing;
 pub use treadmill::{Treadmill, TreadmillMode};

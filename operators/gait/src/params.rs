@@ -460,6 +460,10 @@ pub struct GaitAnalysis {
     pub strides: Vec<Stride>,
     /// Parameters summarised over `strides`.
     pub summary: Summary,
+    /// Whether the swings and steps keep a human rhythm at `rate_hz` (a wrong time base
+    /// shows here first).
+    #[serde(default)]
+    pub timing: crate::Timing,
 }
 
 impl GaitAnalysis {
@@ -613,6 +617,7 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         });
     }
     let summary = summarise_with_steps(&strides, &steps);
+    let timing = crate::timing::check(&events, &steps);
     Ok(GaitAnalysis {
         rate_hz: rate,
         duration_secs: tracks.len().saturating_sub(1) as f64 / rate,
@@ -630,6 +635,7 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         strides,
         steps,
         summary,
+        timing,
     })
 }
 

@@ -9,7 +9,11 @@
 //! it is clearly above that level.
 //!
 //! * An event is kept only if its landmark is within [`PhysicsParams::event_gate_m`] of its stance
-//!   level, and not inside a flight phase.
+//!   level, and not inside a flight phase. A heel strike may instead reach that height within
+//!   [`LANDING_SECS`] after its instant: the coordinate method fires where the foot stops
+//!   moving *forward*, and a skeleton tracker's ankle (a Kinect's, walking towards it) can come
+//!   down a few frames after it has stopped. A hop's foot, 0.2–0.4 m up at the apex, falls
+//!   only g·t²/2 ≈ 5 cm in that time and stays rejected.
 //! * A **flight phase** is a stretch where *both* feet (lowest of heel and toe) are more than
 //!   [`PhysicsParams::flight_gate_m`] above their levels for at least
 //!   [`PhysicsParams::min_flight_secs`]: running, hopping, jumping. Walking never has one.
@@ -85,6 +89,8 @@ pub struct FlightPhase {
 /// Heights of every landmark above its own stance level.
 #[derive(Debug, Clone)]
 pub(crate) struct Heights {
+    /// Frames per second of the tracks.
+    pub rate_hz: f64,
     /// Heel heights above the heel's level, left then right.
     pub heel: [Vec<Option<f64>>; 2],
     /// Toe heights above the toe's level.
@@ -92,6 +98,10 @@ pub(crate) struct Heights {
     /// Flight phases.
     pub flights: Vec<FlightPhase>,
 }
+
+/// How long after a heel strike's instant its landmark may still come down to the gate (s):
+/// about three Kinect frames.
+pub const LANDING_SECS: f64 = 0.1;
 
 /// Fraction of the window below the stance level: stance is ≥ 35 % of a running stride and
 /// ≈ 60 % of a walking one, so the 10th percentile lies inside stance.
@@ -158,13 +168,19 @@ pub(crate) fn heights(landmarks: &Landmarks, params: &PhysicsParams) -> Heights 
             });
         }
     }
-    Heights { heel, toe, flights }
+    Heights {
+        rate_hz: landmarks.rate_hz,
+        heel,
+        toe,
+        flights,
+    }
 }
 
 impl Heights {
     /// Whether an event of `foot` at fractional `frame` on the heel (`heel` true) or toe track
-    /// is physically possible: its landmark near its stance level and not inside a flight
-    /// (an event within one frame of a flight's end is its take-off or landing).
+    /// is physically possible: its landmark near its stance level (a heel strike's by
+    /// [`LANDING_SECS`] after it) and not inside a flight (an event within one frame of a
+    /// flight's end is its take-off or landing).
     pub(crate) fn allows(&self, foot: Foot, heel: bool, frame: f64, gate: f64) -> bool {
         let track = if heel {
             &self.heel[foot.index()]
@@ -172,11 +188,17 @@ impl Heights {
             &self.toe[foot.index()]
         };
         let nearest = frame.round().max(0.0) as usize;
-        let high = track
-            .get(nearest)
-            .copied()
-            .flatten()
-            .is_some_and(|h| h > gate);
+        let high = |f: usize| track.get(f).copied().flatten().is_some_and(|h| h > gate);
+        let high = if heel {
+            // Seen high at the instant and at every frame of the landing window it was seen in;
+            // a frame without data neither lands nor stays up.
+            let last = nearest + (LANDING_SECS * self.rate_hz).round() as usize;
+            high(nearest)
+                && (nearest + 1..=last)
+                    .all(|f| high(f) || track.get(f).copied().flatten().is_none())
+        } else {
+            high(nearest)
+        };
         let in_flight = self
             .flights
             .iter()
@@ -194,5 +216,41 @@ impl Heights {
                 if b >= a { b - a + 1 } else { 0 }
             })
             .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Heights at 30 Hz: a left heel that stops moving forward 8 cm up and comes down over the
+    /// next frames, as a Kinect ankle does, and one still 0.25 m up at a hop's apex.
+    fn heights(left_heel: Vec<Option<f64>>) -> Heights {
+        let n = left_heel.len();
+        Heights {
+            rate_hz: 30.0,
+            heel: [left_heel, vec![Some(0.0); n]],
+            toe: [vec![Some(0.0); n], vec![Some(0.0); n]],
+            flights: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_heel_strike_may_land_within_the_landing_window() {
+        let landing = heights([0.3, 0.12, 0.11, 0.08, 0.02, 0.0].map(Some).to_vec());
+        // At frame 1 it is 12 cm up, and down to 8 cm two frames (67 ms) later.
+        assert!(landing.allows(Foot::Left, true, 1.0, 0.10));
+        // A toe off has no landing window.
+        let toe_high = Heights {
+            toe: landing.heel.clone(),
+            ..landing.clone()
+        };
+        assert!(!toe_high.allows(Foot::Left, false, 1.0, 0.10));
+        // The apex of a hop: 0.3 m falling to 0.25 m over the window is rejected.
+        let hop = heights([0.28, 0.30, 0.29, 0.28, 0.26, 0.25, 0.2].map(Some).to_vec());
+        assert!(!hop.allows(Foot::Left, true, 1.0, 0.10));
+        // Missing frames in the window do not count as landed.
+        let unseen = heights(vec![Some(0.3), Some(0.12), None, None, None, Some(0.0)]);
+        assert!(!unseen.allows(Foot::Left, true, 1.0, 0.10));
     }
 }

@@ -102,19 +102,18 @@ fn chu_walk_flights_are_noise_not_running() {
     assert!(a.quality.remaining_gaps > 0, "{:?}", a.quality);
 }
 
-/// Physiological walking: cadence 70–140 steps/min, stride 0.6–1.8 m (adult norms, about
-/// 100–120 steps/min and 1.2–1.5 m, widened for slow and brisk walkers), and left and right mean strides within 20 % of each other.
-fn assert_plausible(a: &GaitAnalysis) {
+/// Adult walking distances: stride 0.6–1.8 m on each foot (norms about 1.2–1.5 m, widened for
+/// slow and brisk walkers), left and right mean strides within 20 % of each other. These hold
+/// whatever the file's clock.
+fn assert_plausible_distances(a: &GaitAnalysis) {
     for foot in [Foot::Left, Foot::Right] {
         let strides: Vec<_> = a.strides.iter().filter(|s| s.foot == foot).collect();
         assert!(!strides.is_empty(), "no {foot:?} stride");
         for s in &strides {
             assert!(
-                (70.0..=140.0).contains(&s.cadence_steps_per_min)
-                    && (0.6..=1.8).contains(&s.stride_length_m),
-                "{foot:?} stride {:.2} m at {:.0} steps/min",
-                s.stride_length_m,
-                s.cadence_steps_per_min
+                (0.6..=1.8).contains(&s.stride_length_m),
+                "{foot:?} stride {:.2} m",
+                s.stride_length_m
             );
         }
     }
@@ -132,6 +131,21 @@ fn assert_plausible(a: &GaitAnalysis) {
         (l - r).abs() <= 0.2 * l.max(r),
         "left {l:.2} m, right {r:.2} m"
     );
+}
+
+/// Physiological walking: the distances above at a cadence of 70–140 steps/min (adult norms
+/// about 100–120).
+fn assert_plausible(a: &GaitAnalysis) {
+    assert_plausible_distances(a);
+    for s in &a.strides {
+        assert!(
+            (70.0..=140.0).contains(&s.cadence_steps_per_min),
+            "{:?} stride at {:.0} steps/min",
+            s.foot,
+            s.cadence_steps_per_min
+        );
+    }
+    assert!(!a.timing.implausible, "{:?}", a.timing);
 }
 
 /// The CHU walk at about 0.95 m/s (SOURCE.txt) should give strides near 1.1–1.3 m at about
@@ -161,16 +175,24 @@ fn straight_walk_is_found_and_glitches_counted() {
     assert!(a.quality.rejected() >= 1, "{:?}", a.quality);
 }
 
-/// Both feet of the Straight walk should give a stride at a walking cadence. Not yet: at the
-/// coordinate-method heel strikes (1.14 and 1.70 s) the left ankle is still 7.5–10 cm above its
-/// stance level, so the 0.10 m gate drops them; opened, they give a left stride of 0.96 m at
-/// 213 steps/min, next to the right 0.84 m at 206 — consistent, but no walking cadence at the
-/// assumed 30 Hz (the log has no time stamps).
+/// Both feet of the Straight walk give a stride of walking length, left and right alike (0.96
+/// and 0.84 m; the left heel strikes, where the Kinect ankle is still 7.5–10 cm up, are kept
+/// because it lands within the next two frames). The log has no time stamps, and at the assumed
+/// 30 Hz its swings last 0.1–0.15 s — under half of what a sprinter's leg needs — and its
+/// cadence is above 200 steps/min: the time base is wrong, and the analysis must say so rather than
+/// report a cadence as if it were true. (Why it is wrong is not known: this lab saved depth and
+/// colour images numbered like its skeleton frames, `kinect-v2-depth-person/004378_*.png`, and a
+/// logger that writes images as it goes may not keep up with 30 Hz.)
 #[test]
-#[ignore = "not yet plausible: left heel strikes gated as airborne, cadence above 200 steps/min"]
-fn straight_walk_is_plausible() {
+fn straight_walk_distances_plausible_and_clock_flagged() {
     let Some((_, result)) = analyse(STRAIGHT) else {
         return;
     };
-    assert_plausible(&result.expect("walking"));
+    let a = result.expect("walking");
+    assert_plausible_distances(&a);
+    let t = a.timing;
+    assert!(t.implausible, "{t:?}");
+    assert!(t.swings >= 2, "{t:?}");
+    assert!(t.median_swing_secs.unwrap() < 0.2, "{t:?}");
+    assert!(a.quality.rejected() >= 1, "{:?}", a.quality);
 }

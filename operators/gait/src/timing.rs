@@ -1,0 +1,160 @@
+//! Whether the events keep a human rhythm at the clip's sample rate.
+//!
+//! A file's time base can be wrong while every position in it is right: Kinect SDK text without
+//! time stamps is read at the Kinect's 30 frames/s, but a logger that wrote only some frames, or
+//! wrote them at its own pace, leaves fewer lines per second. Nothing in the positions shows it,
+//! and every duration (cadence, speed, stance) is then off by the same factor. The legs do show
+//! it: a swinging leg is a pendulum driven by the hip, and it needs time. Walking swing lasts
+//! about 0.4 s (38–40 % of a 1.0–1.2 s stride); even at top sprinting speed it stays near
+//! 0.35 s, because faster runners press harder on the ground rather than swing their legs
+//! faster (Weyand et al. 2000). Step frequency tops out near 5 steps/s in elite sprinting. A
+//! median swing shorter than [`MIN_HUMAN_SWING_SECS`], or a median step shorter than
+//! [`MIN_HUMAN_STEP_SECS`], therefore says the clock is wrong, not the walker.
+//!
+//! The check only flags; it does not guess the true rate. Estimating a rate from gait norms
+//! would make every figure then read from the file a restatement of those norms.
+//!
+//! Reference: Weyand, Sternlight, Bellizzi, Wright (2000). Faster top running speeds are
+//! achieved with greater ground forces not more rapid leg movements. *J. Appl. Physiol.* 89(5),
+//! 1991–1999 (swing time 0.37 ± 0.02 s at top speed, independent of the runner's speed).
+
+use serde::{Deserialize, Serialize};
+
+use crate::{EventKind, Foot, GaitEvent, Step};
+
+/// Shortest median swing (s) a human leg makes: well under the ≈0.35 s of top-speed sprinting.
+pub const MIN_HUMAN_SWING_SECS: f64 = 0.25;
+
+/// Shortest median step (s): well under the ≈0.2 s of elite sprinting (5 steps/s).
+pub const MIN_HUMAN_STEP_SECS: f64 = 0.15;
+
+/// Fewest swings (or steps) a median needs before it is judged.
+const MIN_SAMPLES: usize = 2;
+
+/// The rhythm of the detected events at the clip's rate.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Timing {
+    /// Swings measured: a toe off and the same foot's next heel strike in one segment, with no
+    /// other event of that foot between.
+    pub swings: usize,
+    /// Their median duration (s).
+    pub median_swing_secs: Option<f64>,
+    /// Steps measured.
+    pub steps: usize,
+    /// Their median duration (s).
+    pub median_step_secs: Option<f64>,
+    /// Whether the swings or steps are shorter than a human leg can make them
+    /// ([`MIN_HUMAN_SWING_SECS`], [`MIN_HUMAN_STEP_SECS`]): the clip's time base is then
+    /// probably wrong.
+    pub implausible: bool,
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    })
+}
+
+/// Swing durations (s) of `events`, in no particular order.
+fn swings(events: &[GaitEvent]) -> Vec<f64> {
+    let mut out = Vec::new();
+    for foot in Foot::BOTH {
+        let mut own: Vec<&GaitEvent> = events.iter().filter(|e| e.foot == foot).collect();
+        own.sort_by(|a, b| a.time_secs.total_cmp(&b.time_secs));
+        for pair in own.windows(2) {
+            let [off, strike] = [pair[0], pair[1]];
+            if off.kind == EventKind::ToeOff
+                && strike.kind == EventKind::HeelStrike
+                && off.segment == strike.segment
+            {
+                out.push(strike.time_secs - off.time_secs);
+            }
+        }
+    }
+    out
+}
+
+/// Judges the rhythm of `events` and `steps`.
+#[must_use]
+pub fn check(events: &[GaitEvent], steps: &[Step]) -> Timing {
+    let swing = swings(events);
+    let step: Vec<f64> = steps.iter().map(|s| s.step_time_secs).collect();
+    let (swings, steps) = (swing.len(), step.len());
+    let median_swing_secs = median(swing).filter(|_| swings >= MIN_SAMPLES);
+    let median_step_secs = median(step).filter(|_| steps >= MIN_SAMPLES);
+    let implausible = median_swing_secs.is_some_and(|s| s < MIN_HUMAN_SWING_SECS)
+        || median_step_secs.is_some_and(|s| s < MIN_HUMAN_STEP_SECS);
+    Timing {
+        swings,
+        median_swing_secs,
+        steps,
+        median_step_secs,
+        implausible,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn event(foot: Foot, kind: EventKind, t: f64) -> GaitEvent {
+        GaitEvent {
+            foot,
+            kind,
+            time_secs: t,
+            frame: t * 100.0,
+            segment: 0,
+        }
+    }
+
+    /// A 1.1 s stride with 40 % swing passes; the same events on a clock running 3× fast
+    /// (every time divided by 3) are flagged.
+    #[test]
+    fn a_fast_clock_is_flagged() {
+        let walk = |scale: f64| -> Vec<GaitEvent> {
+            let mut v = Vec::new();
+            for k in 0..4 {
+                let t = k as f64 * 1.1;
+                v.push(event(Foot::Left, EventKind::HeelStrike, t / scale));
+                v.push(event(Foot::Left, EventKind::ToeOff, (t + 0.66) / scale));
+                v.push(event(
+                    Foot::Right,
+                    EventKind::HeelStrike,
+                    (t + 0.55) / scale,
+                ));
+                v.push(event(Foot::Right, EventKind::ToeOff, (t + 0.11) / scale));
+            }
+            v
+        };
+        let real = check(&walk(1.0), &[]);
+        assert_eq!(real.swings, 7, "{real:?}");
+        assert!((real.median_swing_secs.unwrap() - 0.44).abs() < 1e-9);
+        assert!(!real.implausible);
+        let fast = check(&walk(3.0), &[]);
+        assert!(fast.implausible, "{fast:?}");
+    }
+
+    /// One swing is too little to judge; swings across segments are not swings.
+    #[test]
+    fn too_few_swings_are_not_judged() {
+        let mut events = vec![
+            event(Foot::Left, EventKind::ToeOff, 0.0),
+            event(Foot::Left, EventKind::HeelStrike, 0.1),
+            event(Foot::Right, EventKind::ToeOff, 0.2),
+        ];
+        let mut strike = event(Foot::Right, EventKind::HeelStrike, 0.3);
+        strike.segment = 1;
+        events.push(strike);
+        let t = check(&events, &[]);
+        assert_eq!(t.swings, 1);
+        assert_eq!(t.median_swing_secs, None);
+        assert!(!t.implausible);
+    }
+}
