@@ -654,13 +654,14 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
     let mut out: Vec<String> = notes.to_vec();
     let q = &a.quality;
     out.push(format!(
-        "{} of {} landmark samples missing in the input; rejected {} (jumps {}, limb length {}); \
-         bridged {} (gaps up to 0.1 s); {} still missing",
+        "{} of {} landmark samples missing in the input; rejected {} (jumps {}, limb length {}, \
+         leg merged into the other {}); bridged {} (gaps up to 0.1 s); {} still missing",
         q.missing_samples,
         q.samples,
         q.rejected(),
         q.rejected_jumps,
         q.rejected_limb_length,
+        q.rejected_merged_legs,
         q.bridged_samples,
         q.remaining_gaps
     ));

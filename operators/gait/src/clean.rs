@@ -11,11 +11,18 @@
 //!    filter with an absolute threshold; the median of a window survives up to half the window
 //!    of consecutive outliers, and follows smooth motion — a monotone coordinate's median *is*
 //!    the centre sample).
-//! 2. **Limb lengths**: a heel further from the pelvis than the track's median distance by more
+//! 2. **Merged legs** (skeletons only): a body tracker that loses the occluded leg may put
+//!    its joints onto the visible one for several frames — the Kinect's trailing ankle, walking
+//!    towards it, snaps half a metre forward onto the stance ankle and stays there. Two ankle
+//!    centres closer than [`MERGED_ANKLES_M`] while one of them arrived faster than
+//!    [`MAX_ANKLE_SPEED_M_S`] is that snap: the arriving leg's samples are rejected for as
+//!    long as the two stay together. A swinging foot that passes the stance foot closely comes
+//!    in smoothly and is kept; heel markers never snap and are not checked.
+//! 3. **Limb lengths**: a heel further from the pelvis than the track's median distance by more
 //!    than [`CleanParams::max_limb_change`] (relative), or a toe whose distance from its heel
 //!    differs from the median foot length by more than that, is rejected: legs do not stretch
 //!    (they do shorten, when the knee flexes) and feet keep their length.
-//! 3. **Bridging**: gaps up to [`CleanParams::max_bridged_gap_secs`] (rejected samples and
+//! 4. **Bridging**: gaps up to [`CleanParams::max_bridged_gap_secs`] (rejected samples and
 //!    dropouts alike) are filled by linear interpolation between their neighbours; longer gaps
 //!    stay gaps, so nothing long is invented.
 //!
@@ -95,6 +102,9 @@ pub struct DataQuality {
     pub rejected_jumps: usize,
     /// Samples rejected for a leg or foot length far from its median.
     pub rejected_limb_length: usize,
+    /// Ankle samples rejected because the tracker put that leg onto the other one.
+    #[serde(default)]
+    pub rejected_merged_legs: usize,
     /// Samples filled by linear interpolation across short gaps.
     pub bridged_samples: usize,
     /// Samples still missing after bridging.
@@ -105,7 +115,7 @@ impl DataQuality {
     /// All rejected samples.
     #[must_use]
     pub fn rejected(&self) -> usize {
-        self.rejected_jumps + self.rejected_limb_length
+        self.rejected_jumps + self.rejected_limb_length + self.rejected_merged_legs
     }
 }
 
@@ -127,6 +137,10 @@ pub fn clean(landmarks: &mut Landmarks, params: &CleanParams) -> Result<DataQual
         q.samples += track.len();
         q.missing_samples += track.iter().filter(|p| p.is_none()).count();
         q.rejected_jumps += reject_jumps(track, half, params.max_jump_m);
+    }
+    if landmarks.heel_source == crate::HeelSource::AnkleCentre {
+        let [left, right] = &mut landmarks.heel;
+        q.rejected_merged_legs += reject_merged_legs(left, right, landmarks.rate_hz);
     }
     // Leg and foot lengths, against the median of the (jump-free) track.
     for side in 0..2 {
@@ -204,6 +218,63 @@ fn reject_jumps(track: &mut Track, half: usize, max_jump: f64) -> usize {
         );
         if (p - m).norm() > max_jump {
             track[i] = None;
+            rejected += 1;
+        }
+    }
+    rejected
+}
+
+/// Ankle centres closer than this (m) are one leg seen twice, if one of them jumped there: the
+/// ankles are ≈ 7 cm thick and pass each other a step width (ankle centres 0.1–0.2 m) apart.
+pub const MERGED_ANKLES_M: f64 = 0.10;
+
+/// Faster than this (m/s) an ankle does not move in walking (its swing peaks near 2.5× the
+/// walking speed, 3–4 m/s); the snap onto the other leg covered 0.58 m in 62 ms (9 m/s).
+pub const MAX_ANKLE_SPEED_M_S: f64 = 6.0;
+
+/// The speed (m/s) at which `track` arrived at frame `f` from its last sample before `f`.
+fn arrival_speed(track: &Track, f: usize, rate_hz: f64) -> Option<f64> {
+    let p = track[f]?;
+    let (before, q) = track[..f]
+        .iter()
+        .enumerate()
+        .rev()
+        .find_map(|(i, q)| Some((i, (*q)?)))?;
+    Some((p - q).norm() * rate_hz / (f - before) as f64)
+}
+
+/// Rejects the ankle samples of a leg that snapped onto the other leg (see the module
+/// documentation); returns the count.
+fn reject_merged_legs(left: &mut Track, right: &mut Track, rate_hz: f64) -> usize {
+    let n = left.len().min(right.len());
+    let together = |f: usize| matches!((left[f], right[f]), (Some(a), Some(b)) if (a - b).norm() < MERGED_ANKLES_M);
+    let mut runs = Vec::new();
+    let mut f = 0;
+    while f < n {
+        if !together(f) {
+            f += 1;
+            continue;
+        }
+        let start = f;
+        while f < n && together(f) {
+            f += 1;
+        }
+        runs.push(start..f);
+    }
+    let mut rejected = 0;
+    for run in runs {
+        let speeds = [
+            arrival_speed(left, run.start, rate_hz),
+            arrival_speed(right, run.start, rate_hz),
+        ];
+        let fast = |s: Option<f64>| s.is_some_and(|s| s > MAX_ANKLE_SPEED_M_S);
+        let snapped = match speeds {
+            [l, r] if fast(l) && (!fast(r) || l > r) => &mut *left,
+            [_, r] if fast(r) => &mut *right,
+            _ => continue,
+        };
+        for sample in &mut snapped[run] {
+            *sample = None;
             rejected += 1;
         }
     }
@@ -295,6 +366,36 @@ mod tests {
         assert!((t[20].unwrap() - truth.unwrap()).norm() < 1e-9);
         let mut smooth = line(60, 4.0, 30.0);
         assert_eq!(reject_jumps(&mut smooth, 3, 0.15), 0);
+    }
+
+    /// An ankle that jumps onto the other and stays there is rejected for as long as it stays;
+    /// one that swings past the other, however closely, is kept.
+    #[test]
+    fn a_leg_snapped_onto_the_other_is_rejected() {
+        let rate = 30.0;
+        let stance: Track = (0..30).map(|_| Some(Point3::new(0.0, 0.1, 0.1))).collect();
+        // Swinging past at 3 m/s, 4 cm to the side.
+        let swing: Track = (0..30)
+            .map(|i| Some(Point3::new(-0.5 + 3.0 * i as f64 / rate, 0.06, 0.1)))
+            .collect();
+        let (mut a, mut b) = (stance.clone(), swing.clone());
+        assert_eq!(reject_merged_legs(&mut a, &mut b, rate), 0);
+        assert_eq!((a, b), (stance.clone(), swing));
+        // Trailing 0.5 m behind, then snapped onto the stance ankle for frames 10..17.
+        let snapped: Track = (0..30)
+            .map(|i| {
+                Some(if (10..17).contains(&i) {
+                    Point3::new(0.03, 0.12, 0.1)
+                } else {
+                    Point3::new(-0.5, -0.1, 0.1)
+                })
+            })
+            .collect();
+        let (mut a, mut b) = (stance.clone(), snapped);
+        assert_eq!(reject_merged_legs(&mut a, &mut b, rate), 7);
+        assert_eq!(a, stance);
+        assert!(b[10..17].iter().all(Option::is_none));
+        assert!(b[9].is_some() && b[17].is_some());
     }
 
     /// Gaps longer than the limit, and gaps at the ends, are left alone.
