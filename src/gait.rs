@@ -305,6 +305,19 @@ pub fn load_input(
             sdk.inferred_dropped + sdk.inferred_kept,
             if keep_inferred { "kept" } else { "dropped" }
         )];
+        if sdk.swapped_frames > 0 {
+            let runs: Vec<String> = sdk
+                .swapped_runs
+                .iter()
+                .map(|r| format!("{:.2}-{:.2} s", r.start as f64 / rate, r.end as f64 / rate))
+                .collect();
+            notes.push(format!(
+                "left and right swapped back in {} frames walking away from the sensor ({}): \
+                 the SDK fits a skeleton that faces the sensor to the person's back",
+                sdk.swapped_frames,
+                runs.join(", ")
+            ));
+        }
         let landmarks = trigait_gait::Landmarks::from_clip(&sdk.clip)?;
         if !sdk.clip.has(Joint::FootLeft) {
             notes.push("no foot joints: toe offs from the ankles".to_owned());

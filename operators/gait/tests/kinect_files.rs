@@ -89,8 +89,8 @@ fn cyrille_in_place_legs_give_no_strides() {
 /// and far-range feet are noisy — at 0.55 a second of walking where a runner is airborne at
 /// every step (≥ 2.5 a second). Asserted: the flights are still reported, but the clip is
 /// *walking* (coordinate method), and the tracker's jumps are counted as rejected samples
-/// (18 today: 11 jumps, 1 limb length, and 6 samples of the right ankle that the tracker put
-/// onto the left one at 7.03–7.23 s).
+/// (18 today: 11 jumps and 7 samples of the right ankle that the tracker put onto the left one
+/// at 7.03–7.23 s).
 #[test]
 fn chu_walk_flights_are_noise_not_running() {
     let Some((_, result)) = analyse(CHU) else {

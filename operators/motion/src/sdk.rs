@@ -10,6 +10,13 @@
 //!   pairs before the 175 zeros, each an empty frame. Such loggers may run faster than the
 //!   Kinect and repeat its last skeleton; [`sdk_clip`] drops the repeats and places frames by
 //!   their time.
+//!
+//! The SDK's body tracker assumes the person faces the sensor. Walking away, it fits that
+//! front-facing skeleton to the person's back, so its "left" joints are the person's right
+//! (measured on the CHU log in `../shared/data/kinect-v2-vicon-chu-walk`: the hip axis stays
+//! within 12° of facing the sensor in every run, the walking-away ones included). People walk
+//! forwards, so [`sdk_clip`] swaps the sides back wherever the labelled skeleton faces against
+//! its own walking direction.
 
 use std::path::Path;
 
@@ -169,6 +176,11 @@ pub struct SdkClip {
     pub inferred_dropped: usize,
     /// Joint samples kept as inferred (when `drop_inferred` is off).
     pub inferred_kept: usize,
+    /// Frames (with a skeleton) whose left and right joints were swapped back because the
+    /// skeleton walked backwards as labelled (walking away from the sensor).
+    pub swapped_frames: usize,
+    /// The runs of frames (indices into the clip) that were swapped back.
+    pub swapped_runs: Vec<std::ops::Range<usize>>,
 }
 
 /// Builds an [`SdkClip`] from parsed SDK frames.
@@ -221,6 +233,13 @@ fn finish_clip(
     (dropped, kept): (usize, usize),
 ) -> Result<SdkClip> {
     let missing = rows.iter().filter(|r| r.is_none()).count();
+    let mut rows = rows;
+    let swapped_runs = swap_sides_walking_backwards(&mut rows, rate_hz);
+    let swapped_frames = swapped_runs
+        .iter()
+        .flat_map(|r| &rows[r.clone()])
+        .filter(|r| r.is_some())
+        .count();
     let rows = rows
         .into_iter()
         .map(|r| r.unwrap_or_else(|| vec![None; joints.len()]))
@@ -231,7 +250,102 @@ fn finish_clip(
         missing_frames: missing,
         inferred_dropped: dropped,
         inferred_kept: kept,
+        swapped_frames,
+        swapped_runs,
     })
+}
+
+/// Pelvis speed (m/s, horizontal) above which a frame counts as walking for the side check.
+const WALKING_SPEED_M_S: f64 = 0.3;
+
+/// Half-width (s) of the window the pelvis velocity is taken over: a quarter stride, so the
+/// sway within a step does not turn the direction.
+const VELOCITY_HALF_WINDOW_SECS: f64 = 0.25;
+
+/// Cosine of the angle between the labelled facing and the walking direction below which the
+/// skeleton walks backwards as labelled: 120°. Walking across the view the SDK's hips still turn
+/// towards the sensor by 26–33° (median, CHU), far from this.
+const BACKWARDS_COS: f64 = -0.5;
+
+/// Swaps left and right joints back in every walking run (frames whose pelvis moves faster than
+/// [`WALKING_SPEED_M_S`]) whose labelled skeleton faces mostly against its walking direction;
+/// returns the runs swapped. Rows are world rows (Z up) in [`Joint::ALL`] order.
+/// The facing is (hip left − hip right) × up; a run is swapped when most of its frames with
+/// both hips say so, so a frame with a dropped hip goes with its run.
+fn swap_sides_walking_backwards(
+    rows: &mut [Option<Vec<Option<Point3<f64>>>>],
+    rate_hz: f64,
+) -> Vec<std::ops::Range<usize>> {
+    let n = rows.len();
+    let joint = |f: usize, j: Joint| rows[f].as_ref().and_then(|r| r[j.index()]);
+    let half = ((VELOCITY_HALF_WINDOW_SECS * rate_hz).round() as usize).max(1);
+    // Per frame: None when not walking, else whether the labels face backwards (None inside when
+    // a hip is missing).
+    let verdicts: Vec<Option<Option<bool>>> = (0..n)
+        .map(|f| {
+            joint(f, Joint::SpineBase)?;
+            let lo =
+                (f.saturating_sub(half)..=f).find(|&g| joint(g, Joint::SpineBase).is_some())?;
+            let hi = (f..=(f + half).min(n - 1))
+                .rev()
+                .find(|&g| joint(g, Joint::SpineBase).is_some())?;
+            if hi - lo < half {
+                return None;
+            }
+            let d = joint(hi, Joint::SpineBase)? - joint(lo, Joint::SpineBase)?;
+            let v = nalgebra::Vector2::new(d.x, d.y) * rate_hz / (hi - lo) as f64;
+            if v.norm() <= WALKING_SPEED_M_S || !v.norm().is_finite() {
+                return None;
+            }
+            let backwards = match (joint(f, Joint::HipLeft), joint(f, Joint::HipRight)) {
+                (Some(l), Some(r)) => {
+                    let axis = l - r;
+                    let facing = nalgebra::Vector2::new(axis.y, -axis.x);
+                    let norm = facing.norm();
+                    (norm > 0.0).then(|| facing.dot(&v) / (norm * v.norm()) < BACKWARDS_COS)
+                }
+                _ => None,
+            };
+            Some(backwards)
+        })
+        .collect();
+    let mut backwards_runs: Vec<std::ops::Range<usize>> = Vec::new();
+    let mut f = 0;
+    while f < n {
+        if verdicts[f].is_none() {
+            f += 1;
+            continue;
+        }
+        let start = f;
+        while f < n && verdicts[f].is_some() {
+            f += 1;
+        }
+        let said: Vec<bool> = verdicts[start..f]
+            .iter()
+            .flatten()
+            .flatten()
+            .copied()
+            .collect();
+        let backwards = said.iter().filter(|b| **b).count();
+        if 2 * backwards <= said.len() {
+            continue;
+        }
+        // Nobody turns round within a quarter stride: frames between two backward runs that
+        // close (a pelvis missing nearby leaves their speed unknown) go with them.
+        match backwards_runs.last_mut() {
+            Some(last) if start - last.end <= half => last.end = f,
+            _ => backwards_runs.push(start..f),
+        }
+    }
+    for run in &backwards_runs {
+        for row in rows[run.clone()].iter_mut().flatten() {
+            let original = row.clone();
+            for j in Joint::ALL {
+                row[j.index()] = original[j.mirrored().index()];
+            }
+        }
+    }
+    backwards_runs
 }
 
 /// One frame's joints turned into the world frame, with the inferred samples dropped or kept
@@ -353,6 +467,135 @@ mod tests {
             .count();
         // 381 distinct skeletons; nearly all find a slot.
         assert!((370..=381).contains(&tracked), "{tracked}");
+    }
+
+    /// `clip` (world, Z up) as the SDK would log it, with left and right exchanged when
+    /// `mirror` (its front-facing skeleton fitted to a back).
+    fn as_sdk(clip: &MotionClip, mirror: bool) -> Vec<SdkFrame> {
+        (0..clip.frame_count())
+            .map(|f| SdkFrame {
+                frame_number: f as u64,
+                time_ms: None,
+                joints: clip
+                    .joints()
+                    .iter()
+                    .filter_map(|&j| {
+                        let p = clip.position(f, j)?;
+                        Some(JointSample {
+                            joint: if mirror { j.mirrored() } else { j },
+                            position_in_kinect: Point3::new(p.y, p.z, p.x),
+                            state: TrackingState::Tracked,
+                        })
+                    })
+                    .collect(),
+            })
+            .collect()
+    }
+
+    fn same(a: &MotionClip, b: &MotionClip) -> bool {
+        (0..a.frame_count()).all(|f| {
+            Joint::LEGS
+                .iter()
+                .all(|&j| match (a.position(f, j), b.position(f, j)) {
+                    (Some(p), Some(q)) => (p - q).norm() < 1e-9,
+                    (None, None) => true,
+                    _ => false,
+                })
+        })
+    }
+
+    /// Walking away with the SDK's mirrored labels, the sides are put back in every frame;
+    /// walking towards the sensor, and standing, nothing is touched.
+    #[test]
+    fn walking_away_sides_are_swapped_back() {
+        let walk = crate::walker(&crate::WalkerParams::default(), 3.0, 30.0).unwrap();
+        let pelvis = |c: &MotionClip, f: usize| c.position(f, Joint::SpineBase).unwrap();
+        let last = walk.frame_count() - 1;
+        assert!(
+            pelvis(&walk, last).x - pelvis(&walk, 0).x > 2.0,
+            "the walker walks +X"
+        );
+        let start = pelvis(&walk, 0);
+        // Away: from 1 m in front of the sensor along +X (world X points away from it).
+        let away = walk.transformed(&nalgebra::Isometry3::translation(
+            1.0 - start.x,
+            -start.y,
+            0.0,
+        ));
+        let read = sdk_clip("away", &as_sdk(&away, true), 30.0, false).unwrap();
+        assert_eq!(read.swapped_frames, away.frame_count());
+        assert!(same(&read.clip, &away));
+        // Towards: turned round, from 6 m.
+        let turned = nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(6.0 + start.x, start.y, 0.0),
+            nalgebra::UnitQuaternion::from_axis_angle(
+                &nalgebra::Vector3::z_axis(),
+                std::f64::consts::PI,
+            ),
+        );
+        let towards = walk.transformed(&turned);
+        let read = sdk_clip("towards", &as_sdk(&towards, false), 30.0, false).unwrap();
+        assert_eq!(read.swapped_frames, 0);
+        assert!(same(&read.clip, &towards));
+        // Standing still, mirrored or not: no walking direction, nothing swapped.
+        let still: Vec<SdkFrame> = (0..30)
+            .map(|f| SdkFrame {
+                frame_number: f,
+                ..as_sdk(&away, true)[0].clone()
+            })
+            .collect();
+        assert_eq!(
+            sdk_clip("still", &still, 30.0, false)
+                .unwrap()
+                .swapped_frames,
+            0
+        );
+    }
+
+    /// The CHU log: every frame swapped back is one where the pelvis moves away from the
+    /// sensor (its distance grows over ±0.25 s, which the rule does not look at), and most of
+    /// the frames that walk away are swapped.
+    #[test]
+    fn chu_walking_away_is_swapped_back() {
+        let path = trigait_test_data::shared_data_dir()
+            .join("kinect-v2-vicon-chu-walk/JointsInfo_before_CHU_test.txt");
+        let frames = read_sdk_skeletons(&path).unwrap();
+        let read = sdk_clip("chu", &frames, 30.0, true).unwrap();
+        let clip = &read.clip;
+        let distance = |f: usize| {
+            clip.position(f, Joint::SpineBase)
+                .map(|p| nalgebra::Vector2::new(p.x, p.y).norm())
+        };
+        let swapped = |f: usize| read.swapped_runs.iter().any(|r| r.contains(&f));
+        let (mut away, mut away_swapped, mut towards_swapped) = (0, 0, 0);
+        for f in 8..clip.frame_count().saturating_sub(8) {
+            let (Some(a), Some(b)) = (distance(f - 8), distance(f + 8)) else {
+                continue;
+            };
+            let radial = (b - a) * 30.0 / 16.0;
+            if radial > 0.3 {
+                away += 1;
+                away_swapped += usize::from(swapped(f));
+            } else if radial < -0.3 {
+                towards_swapped += usize::from(swapped(f));
+            }
+        }
+        eprintln!(
+            "swapped {} frames in {:?}; walking away {away}, of them swapped {away_swapped}; towards and swapped {towards_swapped}",
+            read.swapped_frames, read.swapped_runs
+        );
+        assert!(away > 100, "{away}");
+        assert!(away_swapped * 10 >= away * 9, "{away_swapped} of {away}");
+        assert!(towards_swapped <= 3, "{towards_swapped}");
+        // SOURCE.txt: the third run (15.5–19.5 s) walks towards the sensor throughout.
+        let third = (15.5 * 30.0) as usize..(19.5 * 30.0) as usize;
+        assert!(
+            read.swapped_runs
+                .iter()
+                .all(|r| r.end <= third.start || r.start >= third.end),
+            "{:?}",
+            read.swapped_runs
+        );
     }
 
     /// A short line and a non-number are errors naming the line, never panics.
