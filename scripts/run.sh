@@ -58,4 +58,7 @@ if wait.get("deadline_ms") is not None:
 print(f"  gaps             : {len(s['gaps'])}")
 print(f"  recording        : {out}/trigait.rrd  (view: .venv/bin/rerun {out}/trigait.rrd)")
 print(f"  exports          : {out}/trajectory.txt (thesis format), {out}/trajectory.csv/.trc/.c3d (trigait gait/export read them)")
+import os
+if os.path.exists(f"{out}/report.html"):
+    print(f"  gait report      : {out}/report.html (open it in a browser)")
 PY

@@ -661,88 +661,9 @@ fn cell(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "-".to_owned(), |v| format!("{v:.digits$}"))
 }
 
-/// One line per data-quality fact of `a` (and the reading `notes`): what the report's
-/// data-quality section and the table's footer say.
+/// One line per data-quality fact of `a` (and the reading `notes`).
 pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
-    let mut out: Vec<String> = notes.to_vec();
-    let q = &a.quality;
-    out.push(format!(
-        "{} of {} landmark samples missing in the input; rejected {} (jumps {}, limb length {}, \
-         leg merged into the other {}); bridged {} (gaps up to 0.1 s); {} still missing",
-        q.missing_samples,
-        q.samples,
-        q.rejected(),
-        q.rejected_jumps,
-        q.rejected_limb_length,
-        q.rejected_merged_legs,
-        q.bridged_samples,
-        q.remaining_gaps
-    ));
-    if let Some(floor) = a.floor.filter(|f| f.applied) {
-        out.push(format!(
-            "floor levelled: the resting feet lie on a plane tilted by {:.1} deg ({} samples)",
-            floor.tilt_deg, floor.samples
-        ));
-    }
-    if a.rejected_events > 0 {
-        out.push(format!(
-            "{} proposed events dropped: the foot was airborne",
-            a.rejected_events
-        ));
-    }
-    if a.timing.implausible {
-        let median = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |s| format!("{s:.2} s"));
-        out.push(format!(
-            "TIMING IMPLAUSIBLE at {:.0} Hz: median swing {} over {} swings, median step {} over \
-             {} steps; no human leg swings in under {:.2} s or steps in under {:.2} s, so the \
-             file's time base is probably wrong and every duration, cadence and speed with it \
-             (for untimed Kinect text, give the true frame rate with --rate)",
-            a.rate_hz,
-            median(a.timing.median_swing_secs),
-            a.timing.swings,
-            median(a.timing.median_step_secs),
-            a.timing.steps,
-            trigait_gait::timing::MIN_HUMAN_SWING_SECS,
-            trigait_gait::timing::MIN_HUMAN_STEP_SECS,
-        ));
-    }
-    out.push(if a.flights.is_empty() {
-        "no flight phases (one foot always on the floor)".to_owned()
-    } else {
-        format!(
-            "{} flight phases (both feet off the floor): {}",
-            a.flights.len(),
-            a.flights
-                .iter()
-                .map(|f| format!("{:.2}-{:.2} s", f.start_secs, f.end_secs))
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    });
-    out.push(format!(
-        "method {}{}",
-        a.method.name(),
-        if a.running {
-            " (running: flight phases found)"
-        } else {
-            " (walking)"
-        }
-    ));
-    out.push(match &a.treadmill {
-        Some(t) => format!(
-            "treadmill ({}), belt {:.3} m/s ({}): stride and step length and speed are belt-corrected",
-            if t.declared { "declared" } else { "detected" },
-            t.belt_speed_mps,
-            if t.speed_estimated {
-                format!("estimated from {} stance-foot samples", t.stance_samples)
-            } else {
-                "given".to_owned()
-            }
-        ),
-        None => "overground".to_owned(),
-    });
-    out.push(format!("step width from {}", a.heel_source.name()));
-    out
+    trigait_gait::report::quality_notes(notes, a)
 }
 
 /// The human-readable report.

@@ -212,6 +212,14 @@ fn default_graph_meets_acceptance() {
         let markers = trigait_motion::read_markers(run.out_dir.join(name)).unwrap();
         assert_eq!(markers.frame_count(), clip.frame_count(), "{name}");
     }
+    // The run's gait report: one well-formed page with its two figures and a parameter table.
+    let report = std::fs::read_to_string(run.out_dir.join("report.html")).unwrap();
+    trigait_gait::report::check_well_formed(&report).unwrap();
+    assert_eq!(report.matches("<svg").count(), 2);
+    assert!(
+        report.contains("<td>cadence (steps/min)</td><td>1"),
+        "no cadence in the report"
+    );
 }
 
 /// The default graph's recording opens with the gait-lab layout: read back from the `.rrd`, its

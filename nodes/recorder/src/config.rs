@@ -2,7 +2,7 @@
 //!
 //! | env var | type | default | meaning |
 //! |---|---|---|---|
-//! | `OUTPUT_DIR` | path | `out` | where `summary.json`, `trajectory.txt` (thesis format) and `trajectory.csv`/`.trc`/`.c3d` go |
+//! | `OUTPUT_DIR` | path | `out` | where `summary.json`, `trajectory.txt` (thesis format), `trajectory.csv`/`.trc`/`.c3d` and the gait report `report.html` go |
 //! | `RRD` | path or `none` | `<OUTPUT_DIR>/trigait.rrd` | the rerun recording file |
 //! | `RERUN_CONNECT` | gRPC url | none | also stream to a running viewer (`rerun+http://127.0.0.1:9876/proxy`); never blocks when none is there |
 //! | `RIG` | `thesis`, `ring-N` or YAML path | `thesis` | sensor poses drawn as axes and frusta; must be the sources' rig (checked against the stamp on every pose and timing; a mismatch stops the node naming both) |

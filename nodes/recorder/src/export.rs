@@ -1,6 +1,7 @@
 //! What the recorder writes of the fused joints: the thesis-style ring buffer (1000 positions
 //! per joint, thesis §6.4.5) as a whitespace text file like the thesis's, and the whole run as a
-//! motion (CSV, TRC, C3D) through `trigait-motion`, so that the CLI reads it back.
+//! motion (CSV, TRC, C3D) through `trigait-motion`, so that the CLI reads it back, and its gait
+//! report (`report.html`, the page `trigait report` writes, made by `trigait-gait`).
 //!
 //! While the run goes, `trajectory.csv` is appended ([`LiveTrajectory`] on the event loop hands
 //! the new frames to [`LiveCsv`] on the writer thread, [`crate::writer`]) and `summary.json`
@@ -121,10 +122,19 @@ impl Ring {
 }
 
 /// The files [`write_trajectory`] writes, in `OUTPUT_DIR`.
-pub const TRAJECTORY_FILES: [&str; 3] = ["trajectory.csv", "trajectory.trc", "trajectory.c3d"];
+pub const TRAJECTORY_FILES: [&str; 4] = [
+    "trajectory.csv",
+    "trajectory.trc",
+    "trajectory.c3d",
+    REPORT_FILE,
+];
+
+/// The gait report of the run, in `OUTPUT_DIR`.
+pub const REPORT_FILE: &str = "report.html";
 
 /// Writes the whole run's fused joints through `trigait-motion` as `trajectory.csv` (the CSV
-/// `trigait gait` and `trigait export` read), `trajectory.trc` and `trajectory.c3d`. A run with
+/// `trigait gait` and `trigait export` read), `trajectory.trc` and `trajectory.c3d`, and their
+/// gait report as [`REPORT_FILE`] (what `trigait report out/trajectory.csv` gives). A run with
 /// too few poses for a frame rate writes none of them (and removes those of an earlier run,
 /// so no stale file is taken for this run's) and says why.
 ///
@@ -145,11 +155,31 @@ pub fn write_trajectory(dir: &Path, trajectory: &Trajectory) -> eyre::Result<()>
             return Ok(());
         }
     };
-    let [csv, trc, c3d] = TRAJECTORY_FILES.map(|name| dir.join(name));
+    let [csv, trc, c3d, report] = TRAJECTORY_FILES.map(|name| dir.join(name));
     trigait_motion::write_csv(&csv, &clip)?;
     trigait_motion::write_trc(&trc, &clip)?;
     trigait_motion::write_c3d(&c3d, &clip)?;
+    std::fs::write(&report, gait_report(&clip))
+        .with_context(|| format!("writing {}", report.display()))?;
     Ok(())
+}
+
+/// The gait report page of the run's fused joints, analysed with the `trigait gait` defaults;
+/// a run without gait parameters gets a page that says why.
+fn gait_report(clip: &trigait_skeleton::MotionClip) -> String {
+    let title = "trigait graph run: fused joints (trajectory.csv)";
+    let notes = [format!(
+        "fused joints of the graph run: {} frames at {:.1} Hz",
+        clip.frame_count(),
+        clip.rate_hz()
+    )];
+    let page = trigait_gait::Landmarks::from_clip(clip)
+        .and_then(|l| trigait_gait::analyse_landmarks(&l, &trigait_gait::GaitParams::default()))
+        .and_then(|a| trigait_gait::report::html(title, "none", &notes, clip, &a));
+    page.unwrap_or_else(|e| {
+        warn!("the gait report has no parameters: {e}");
+        trigait_gait::report::html_without_analysis(title, &e.to_string(), &notes)
+    })
 }
 
 /// `summary.json` written whole or not at all (a temporary file renamed over it), so a

@@ -256,11 +256,19 @@ fn trajectory_files_read_back() {
     assert_eq!(trc.frame_count(), 90);
     let c3d = trigait_motion::read_c3d(dir.join("trajectory.c3d")).unwrap();
     assert_eq!(c3d.frame_count(), 90);
+    // One knee gives no gait: the report says which joint is missing.
+    let report = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    trigait_gait::report::check_well_formed(&report).unwrap();
+    assert!(
+        report.contains("No gait parameters") && report.contains("ankle"),
+        "{report}"
+    );
     // Too few poses for a rate: no files, and an earlier run's are gone.
     let mut one = trigait_fusion::Trajectory::new();
     one.push(&pose(0, 0, 0.0));
     crate::export::write_trajectory(&dir, &one).unwrap();
     assert!(!dir.join("trajectory.csv").exists() && !dir.join("trajectory.c3d").exists());
+    assert!(!dir.join("report.html").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -72,6 +72,7 @@ mod live;
 mod params;
 pub mod physics;
 pub mod plot;
+pub mod report;
 mod segment;
 mod signal;
 pub mod stream;
