@@ -33,7 +33,8 @@
 //! 4. [`compare`] sets two parameter summaries side by side (markers vs Kinect pipeline).
 //! 5. [`filter`] offers a zero-lag Butterworth low-pass (Winter 2009) and the One-Euro filter
 //!    (Casiez et al. 2012) for noisy trajectories; [`plot`] draws trajectories with events and a
-//!    footfall diagram as SVG and PNG, in memory.
+//!    footfall diagram as SVG and PNG, in memory; [`report`] puts the table, the plots and the
+//!    data-quality notes on one self-contained HTML page.
 //! 6. [`angles`] gives sagittal hip and knee flexion per gait cycle, normalised to 0–100 %.
 //! 7. [`timing`] checks that the swings and steps keep a human rhythm at the clip's rate, which
 //!    flags a wrong time base (untimed Kinect text read at 30 Hz).
