@@ -10,10 +10,12 @@
 //!
 //! * An event is kept only if its landmark is within [`PhysicsParams::event_gate_m`] of its stance
 //!   level, and not inside a flight phase. A heel strike may instead reach that height within
-//!   [`LANDING_SECS`] after its instant: the coordinate method fires where the foot stops
+//!   [`CONTACT_WINDOW_SECS`] after its instant: the coordinate method fires where the foot stops
 //!   moving *forward*, and a skeleton tracker's ankle (a Kinect's, walking towards it) can come
-//!   down a few frames after it has stopped. A hop's foot, 0.2–0.4 m up at the apex, falls
-//!   only g·t²/2 ≈ 5 cm in that time and stays rejected.
+//!   down a few frames after it has stopped. A toe off may likewise have been at that height
+//!   within the window before it: without a foot joint the ankle stands in for the toe, and
+//!   the ankle rises with the heel before the toes leave the floor. A hop's foot, 0.2–0.4 m up
+//!   at the apex, moves only g·t²/2 ≈ 5 cm in that time and stays rejected.
 //! * A **flight phase** is a stretch where *both* feet (lowest of heel and toe) are more than
 //!   [`PhysicsParams::flight_gate_m`] above their levels for at least
 //!   [`PhysicsParams::min_flight_secs`]: running, hopping, jumping. Walking never has one.
@@ -99,9 +101,9 @@ pub(crate) struct Heights {
     pub flights: Vec<FlightPhase>,
 }
 
-/// How long after a heel strike's instant its landmark may still come down to the gate (s):
-/// about three Kinect frames.
-pub const LANDING_SECS: f64 = 0.1;
+/// How long after a heel strike's instant its landmark may still come down to the gate, and
+/// before a toe off's instant it may already have left it (s): about three Kinect frames.
+pub const CONTACT_WINDOW_SECS: f64 = 0.1;
 
 /// Fraction of the window below the stance level: stance is ≥ 35 % of a running stride and
 /// ≈ 60 % of a walking one, so the 10th percentile lies inside stance.
@@ -179,7 +181,7 @@ pub(crate) fn heights(landmarks: &Landmarks, params: &PhysicsParams) -> Heights 
 impl Heights {
     /// Whether an event of `foot` at fractional `frame` on the heel (`heel` true) or toe track
     /// is physically possible: its landmark near its stance level (a heel strike's by
-    /// [`LANDING_SECS`] after it) and not inside a flight (an event within one frame of a
+    /// [`CONTACT_WINDOW_SECS`] after it, a toe off's that long before it) and not inside a flight (an event within one frame of a
     /// flight's end is its take-off or landing).
     pub(crate) fn allows(&self, foot: Foot, heel: bool, frame: f64, gate: f64) -> bool {
         let track = if heel {
@@ -189,16 +191,18 @@ impl Heights {
         };
         let nearest = frame.round().max(0.0) as usize;
         let high = |f: usize| track.get(f).copied().flatten().is_some_and(|h| h > gate);
-        let high = if heel {
-            // Seen high at the instant and at every frame of the landing window it was seen in;
-            // a frame without data neither lands nor stays up.
-            let last = nearest + (LANDING_SECS * self.rate_hz).round() as usize;
-            high(nearest)
-                && (nearest + 1..=last)
-                    .all(|f| high(f) || track.get(f).copied().flatten().is_none())
+        // Seen high at the instant and at every frame of the contact window it was seen in (after
+        // a heel strike, before a toe off); a frame without data neither touches nor stays up.
+        let window = (CONTACT_WINDOW_SECS * self.rate_hz).round() as usize;
+        let contact = if heel {
+            nearest + 1..nearest + 1 + window
         } else {
-            high(nearest)
+            nearest.saturating_sub(window)..nearest
         };
+        let high = high(nearest)
+            && contact
+                .into_iter()
+                .all(|f| high(f) || track.get(f).copied().flatten().is_none());
         let in_flight = self
             .flights
             .iter()
@@ -236,16 +240,35 @@ mod tests {
     }
 
     #[test]
-    fn a_heel_strike_may_land_within_the_landing_window() {
+    fn events_may_touch_within_the_contact_window() {
         let landing = heights([0.3, 0.12, 0.11, 0.08, 0.02, 0.0].map(Some).to_vec());
         // At frame 1 it is 12 cm up, and down to 8 cm two frames (67 ms) later.
         assert!(landing.allows(Foot::Left, true, 1.0, 0.10));
-        // A toe off has no landing window.
+        // A toe off looks back, not ahead: 0.3 m up the frame before, it is rejected.
         let toe_high = Heights {
             toe: landing.heel.clone(),
             ..landing.clone()
         };
         assert!(!toe_high.allows(Foot::Left, false, 1.0, 0.10));
+        // An ankle standing in for the toe, 12 cm up at toe off and on the floor 0.1 s before.
+        let lifting = heights(vec![Some(0.0); 6]);
+        let lifting = Heights {
+            toe: [
+                [0.0, 0.02, 0.05, 0.09, 0.12, 0.2].map(Some).to_vec(),
+                vec![Some(0.0); 6],
+            ],
+            ..lifting
+        };
+        assert!(lifting.allows(Foot::Left, false, 4.0, 0.10));
+        // One that left the floor more than 0.1 s before is airborne.
+        let early = Heights {
+            toe: [
+                [0.0, 0.15, 0.2, 0.25, 0.3, 0.35].map(Some).to_vec(),
+                vec![Some(0.0); 6],
+            ],
+            ..lifting.clone()
+        };
+        assert!(!early.allows(Foot::Left, false, 5.0, 0.10));
         // The apex of a hop: 0.3 m falling to 0.25 m over the window is rejected.
         let hop = heights([0.28, 0.30, 0.29, 0.28, 0.26, 0.25, 0.2].map(Some).to_vec());
         assert!(!hop.allows(Foot::Left, true, 1.0, 0.10));
