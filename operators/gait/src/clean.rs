@@ -15,7 +15,7 @@
 //!    its joints onto the visible one for several frames — the Kinect's trailing ankle, walking
 //!    towards it, snaps half a metre forward onto the stance ankle and stays there. Two ankle
 //!    centres closer than [`MERGED_ANKLES_M`] while one of them arrived faster than
-//!    [`MAX_ANKLE_SPEED_M_S`] is that snap: the arriving leg's samples are rejected for as
+//!    [`MAX_ANKLE_SPEED_M_S`] (and the other did not) is that snap: the arriving leg's samples are rejected for as
 //!    long as the two stay together. A swinging foot that passes the stance foot closely comes
 //!    in smoothly and is kept; heel markers never snap and are not checked.
 //! 3. **Limb lengths**: a heel further from the pelvis than the track's median distance by more
@@ -268,9 +268,11 @@ fn reject_merged_legs(left: &mut Track, right: &mut Track, rate_hz: f64) -> usiz
             arrival_speed(right, run.start, rate_hz),
         ];
         let fast = |s: Option<f64>| s.is_some_and(|s| s > MAX_ANKLE_SPEED_M_S);
-        let snapped = match speeds {
-            [l, r] if fast(l) && (!fast(r) || l > r) => &mut *left,
-            [_, r] if fast(r) => &mut *right,
+        // Both arriving that fast is the whole skeleton jumping (the jump filter's business),
+        // not one leg put onto the other.
+        let snapped = match speeds.map(fast) {
+            [true, false] => &mut *left,
+            [false, true] => &mut *right,
             _ => continue,
         };
         for sample in &mut snapped[run] {
@@ -396,6 +398,15 @@ mod tests {
         assert_eq!(a, stance);
         assert!(b[10..17].iter().all(Option::is_none));
         assert!(b[9].is_some() && b[17].is_some());
+        // Both ankles jumping together into 8 cm of each other (the whole skeleton glitched)
+        // is no merged leg.
+        let track = |before: f64, after: f64, y: f64| -> Track {
+            (0..30)
+                .map(|i| Some(Point3::new(if i < 10 { before } else { after }, y, 0.1)))
+                .collect()
+        };
+        let (mut a, mut b) = (track(0.0, 0.4, 0.0), track(0.8, 0.4, 0.08));
+        assert_eq!(reject_merged_legs(&mut a, &mut b, rate), 0);
     }
 
     /// Gaps longer than the limit, and gaps at the ends, are left alone.
