@@ -282,7 +282,7 @@ pub fn load_input(
     if is_txt {
         let frames = trigait_motion::read_sdk_skeletons(path)
             .wrap_err_with(|| format!("reading Kinect skeletons from {}", path.display()))?;
-        let timed = !frames.is_empty() && frames.iter().all(|f| f.time_ms.is_some());
+        let timed = trigait_motion::is_timed(&frames);
         if timed && rate_hz.is_some() {
             eyre::bail!(
                 "--rate: {} has time stamps, which place its frames; the option is for \
@@ -661,11 +661,6 @@ fn cell(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "-".to_owned(), |v| format!("{v:.digits$}"))
 }
 
-/// One line per data-quality fact of `a` (and the reading `notes`).
-pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
-    trigait_gait::report::quality_notes(notes, a)
-}
-
 /// The human-readable report.
 fn table(args: &Args, notes: &[String], a: &GaitAnalysis) -> String {
     use std::fmt::Write;
@@ -679,7 +674,7 @@ fn table(args: &Args, notes: &[String], a: &GaitAnalysis) -> String {
         a.method.name(),
         args.filter
     );
-    for note in quality_notes(notes, a) {
+    for note in trigait_gait::report::quality_notes(notes, a) {
         let _ = writeln!(out, "note: {note}");
     }
     for (i, s) in a.segments.iter().enumerate() {

@@ -172,7 +172,8 @@ pub fn clean(landmarks: &mut Landmarks, params: &CleanParams) -> Result<DataQual
     Ok(q)
 }
 
-fn median(values: &mut [f64]) -> f64 {
+/// The median of `values` (sorted in place; not empty).
+pub(crate) fn median(values: &mut [f64]) -> f64 {
     values.sort_by(f64::total_cmp);
     let n = values.len();
     if n % 2 == 1 {

@@ -49,19 +49,6 @@ pub struct Timing {
     pub implausible: bool,
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
-    })
-}
-
 /// Swing durations (s) of `events`, in no particular order.
 fn swings(events: &[GaitEvent]) -> Vec<f64> {
     let mut out = Vec::new();
@@ -84,11 +71,11 @@ fn swings(events: &[GaitEvent]) -> Vec<f64> {
 /// Judges the rhythm of `events` and `steps`.
 #[must_use]
 pub fn check(events: &[GaitEvent], steps: &[Step]) -> Timing {
-    let swing = swings(events);
-    let step: Vec<f64> = steps.iter().map(|s| s.step_time_secs).collect();
+    let mut swing = swings(events);
+    let mut step: Vec<f64> = steps.iter().map(|s| s.step_time_secs).collect();
     let (swings, steps) = (swing.len(), step.len());
-    let median_swing_secs = median(swing).filter(|_| swings >= MIN_SAMPLES);
-    let median_step_secs = median(step).filter(|_| steps >= MIN_SAMPLES);
+    let median_swing_secs = (swings >= MIN_SAMPLES).then(|| crate::clean::median(&mut swing));
+    let median_step_secs = (steps >= MIN_SAMPLES).then(|| crate::clean::median(&mut step));
     let implausible = median_swing_secs.is_some_and(|s| s < MIN_HUMAN_SWING_SECS)
         || median_step_secs.is_some_and(|s| s < MIN_HUMAN_STEP_SECS);
     Timing {

@@ -183,6 +183,12 @@ pub struct SdkClip {
     pub swapped_runs: Vec<std::ops::Range<usize>>,
 }
 
+/// Whether `frames` come from a timed log, whose time stamps (not a rate) place them.
+#[must_use]
+pub fn is_timed(frames: &[SdkFrame]) -> bool {
+    !frames.is_empty() && frames.iter().all(|f| f.time_ms.is_some())
+}
+
 /// Builds an [`SdkClip`] from parsed SDK frames.
 ///
 /// # Errors
@@ -193,7 +199,7 @@ pub fn sdk_clip(
     rate_hz: f64,
     drop_inferred: bool,
 ) -> Result<SdkClip> {
-    if frames.iter().all(|f| f.time_ms.is_some()) && !frames.is_empty() {
+    if is_timed(frames) {
         return timed_clip(name, frames, rate_hz, drop_inferred);
     }
     let first = frames.iter().map(|f| f.frame_number).min().unwrap_or(0);
