@@ -176,8 +176,15 @@ fn ntp_routes_from_outputs() {
 ///   `frame_timing` says), with those two frames named, the nearest one's skew, and (given a
 ///   third frame) the chord error of a parabola, 0.6·(t − t₀)(t₁ − t) m for 1.2 m/s²; the
 ///   knee is there within the time uncertainty times its speed of where it truly was.
+///
+/// dora's testing daemon sleeps in 10 ms slices and serves the node's requests one at a time,
+/// so an event can reach the node 10–15 ms after its offset. The frame-wait margin is therefore
+/// as long as the deadline (a set waits for the frame after it however late it comes; the
+/// default 10 ms margin let such a frame be judged overdue and the set go out without it), and
+/// the scripted events start after a warm-up of ticks: a freshly built test binary's first
+/// events can stall for tens of milliseconds, which made every NTP round trip look longer than
+/// the clock filter's 20 ms limit and left every frame unsynchronised.
 #[test]
-#[ignore = "fails in every fresh-clone CI (all 14 frames unsynchronised) while it passes in incremental runs, even beside a 6 GB write-back; the cause is not yet found; run with --ignored"]
 fn ntp_replies_and_frames_in_aligned_sets_out() {
     use nalgebra::{Point3, Vector3};
     use trigait_schema::{FrameTiming, Message, NtpExchange, SkeletonFrameMessage, ports};
@@ -193,6 +200,7 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
     // files (slow on a busy disk) then shifts nothing, where a start taken before writing them
     // made every round trip look too long to trust and every frame unplaceable.
     const MARGIN: i64 = 1_500 * MS;
+    const WARM_UP: i64 = 300 * MS;
     let host_start = crate::now_nanos() + MARGIN;
     let secs = |t: i64| (t - host_start) as f64 * 1e-9;
     // Where sensor `k` (0, 1) truly saw the knee at host time `t`: a parabola in x (1.2 m/s²).
@@ -205,7 +213,7 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
         // Eight, so a test machine stalling a few of them past the clock filter's 20 ms delay
         // limit still leaves the four a first fit needs.
         for i in 0..8_i64 {
-            let at = i * 5 * MS + k as i64 * 2 * MS;
+            let at = WARM_UP + i * 5 * MS + k as i64 * 2 * MS;
             // Sent 1 ms before its delivery, answered 0.5 ms later, 0.1 ms in the sensor.
             let t1 = host_start + at - MS;
             let t2 = t1 + MS / 2 + offset;
@@ -222,7 +230,7 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
     let mut captures = Vec::new();
     for j in 0..7_i64 {
         for (k, (id, offset, phase)) in sensors.iter().enumerate() {
-            let capture = host_start + 60 * MS + j * PERIOD + phase;
+            let capture = host_start + WARM_UP + 60 * MS + j * PERIOD + phase;
             let frame = SkeletonFrame {
                 sensor_id: (*id).to_owned(),
                 seq: j as u64,
@@ -252,12 +260,12 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
             captures.push((k, j as u64, capture));
         }
     }
-    for i in 0..20 {
+    for i in 0..35 {
         events.push(serde_json::json!(
             {"time_offset_secs": f64::from(i) * 0.02, "type": "Input", "id": "tick", "data": 0}
         ));
     }
-    events.push(serde_json::json!({"time_offset_secs": 0.42, "type": "Stop"}));
+    events.push(serde_json::json!({"time_offset_secs": 0.72, "type": "Stop"}));
     let early = host_start - crate::now_nanos();
     assert!(
         early > 0,
@@ -272,7 +280,11 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
     );
     // A deadline well past the 30 ms transport, so a slow test machine cannot make a set go
     // out before its frames are in.
-    let config = Config::from_lookup(lookup(&[("LATENCY_DEADLINE_MILLIS", "300")])).unwrap();
+    let config = Config::from_lookup(lookup(&[
+        ("LATENCY_DEADLINE_MILLIS", "300"),
+        ("FRAME_WAIT_MARGIN_MILLIS", "300"),
+    ]))
+    .unwrap();
     let counters = crate::run(
         config,
         vec!["k1".into(), "k2".into()],
@@ -293,7 +305,7 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
         .map(|a| NtpExchange::decode(a.as_ref()).unwrap())
         .collect();
     assert_eq!(requests.len() as u64, counters.ntp_requests);
-    assert!(requests.len() >= 4, "{} requests in 0.4 s", requests.len());
+    assert!(requests.len() >= 4, "{} requests in 0.7 s", requests.len());
     for (i, r) in requests.iter().enumerate() {
         assert_eq!(r.sensor_id, ["k1", "k2"][i % 2], "{requests:?}");
         assert_eq!(r.request_id, i as u64 + 1);
