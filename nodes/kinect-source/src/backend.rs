@@ -122,9 +122,20 @@ impl Source {
                 Ok(Source::Sim(Box::new(sensor)))
             }
             Backend::Replay { file, fast, looped } => {
-                let frames = trigait_motion::read_sdk_skeletons(file).with_context(|| {
+                let mut frames = trigait_motion::read_sdk_skeletons(file).with_context(|| {
                     format!("kinect-source: {}={}", config::REPLAY_FILE, file.display())
                 })?;
+                // The SDK labels a back as a front: walking away, its sides are swapped back
+                // here, in this sensor's own camera frame, before sync ever pairs them.
+                let rate_hz = 1e9 / config.period_nanos() as f64;
+                let swapped = trigait_motion::swap_sides_walking_away(&mut frames, rate_hz);
+                if swapped > 0 {
+                    tracing::info!(
+                        "{}: left and right swapped back in {swapped} of {} frames walking away from the sensor",
+                        file.display(),
+                        frames.len()
+                    );
+                }
                 Ok(Source::Replay(ReplayedSensor::new(
                     config.sensor_id.clone(),
                     frames,

@@ -17,7 +17,7 @@
 //! | `CLOCK_JITTER_MICROS` | µs | `20` | σ of every clock reading |
 //! | `CLOCK_STEP_AT_SECS` | seconds ≥ 0 | none | set the simulated clock by `CLOCK_STEP_MILLIS` this long after the source starts (an NTP daemon or a person stepping the sensor PC's clock); `sim` and `replay` |
 //! | `CLOCK_STEP_MILLIS` | ms | required with `CLOCK_STEP_AT_SECS` | the step (positive: the clock jumps forward), at most ±1 h |
-//! | `REPLAY_FILE` | path | required for `replay` | Kinect v2 SDK skeleton text file (either format) |
+//! | `REPLAY_FILE` | path | required for `replay` | Kinect v2 SDK skeleton text file (either format); where the person walks away from the sensor, left and right are swapped back (the SDK fits a front-facing skeleton to a back) |
 //! | `REPLAY_SPEED` | `realtime` or `fast` (`recording`: also a speed-up factor ≥ 1) | `realtime` | play at 30 Hz (`recording`: on the recorded timeline) or as fast as possible (`recording`: 20× real time, the bounded speed dora delivers without loss) |
 //! | `RECORDING` | path | required for `recording` | a trial recording's `frames.csv` (the recorder's); this source plays `SENSOR_ID`'s frames: in real time re-stamped by this node's clock, faster with the recorded stamps (then `sync` needs `TIMESTAMPS: recorded`) |
 //! | `REPLAY_LOOP` | bool | `true` | start over at the end of the file |

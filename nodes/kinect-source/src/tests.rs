@@ -13,6 +13,7 @@ use trigait_schema::{GroundTruth, Message, NtpExchange, SkeletonFrameMessage};
 use crate::backend::{Source, sensor_clock};
 use crate::config::{Backend, Config};
 use trigait_sim::stream::TRUTH_STEP_NANOS;
+use trigait_skeleton::{Joint, JointSample};
 
 /// Only SENSOR_ID is required; the defaults are the thesis rig, the simulator and 30 Hz.
 #[test]
@@ -222,6 +223,57 @@ fn replay_both_formats() {
             seqs.push(cap.frame.seq);
         }
         assert_eq!(seqs.len(), frames as usize + 2, "looped past the end");
+    }
+}
+
+/// A replayed walk away from the sensor comes out with left and right swapped back: the
+/// Straight log's first half second, where its pelvis moves away (its depth grows), and only
+/// there.
+#[test]
+fn replay_swaps_sides_back_walking_away() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/kinect-v2-skeleton-replay/JointsInfo_Straight.txt");
+    let raw = trigait_motion::read_sdk_skeletons(&path).unwrap();
+    let c = Config::from_lookup(lookup(&[
+        ("SENSOR_ID", "k1"),
+        ("BACKEND", "replay"),
+        ("REPLAY_SPEED", "fast"),
+        ("REPLAY_LOOP", "false"),
+        ("REPLAY_FILE", path.to_str().unwrap()),
+    ]))
+    .unwrap();
+    let mut source = Source::new(&c, 0).unwrap();
+    let mut clock = sensor_clock(&c, 0);
+    let at = |joints: &[JointSample], joint: Joint| {
+        joints
+            .iter()
+            .find(|s| s.joint == joint)
+            .map(|s| s.position_in_kinect)
+    };
+    let pelvis_depth = |f: usize| at(&raw[f].joints, Joint::SpineBase).unwrap().z;
+    let mut swapped = Vec::new();
+    for (f, recorded) in raw.iter().enumerate() {
+        let cap = source.capture(f as i64, &mut clock).unwrap();
+        let (left, right) = (Joint::HipLeft, Joint::HipRight);
+        if at(&cap.frame.joints, left) == at(&recorded.joints, right) {
+            assert_eq!(
+                at(&cap.frame.joints, right),
+                at(&recorded.joints, left),
+                "frame {f}"
+            );
+            swapped.push(f);
+        } else {
+            assert_eq!(cap.frame.joints, recorded.joints, "frame {f}");
+        }
+    }
+    assert!(source.capture(raw.len() as i64, &mut clock).is_none());
+    assert!(swapped.len() >= 10, "{swapped:?}");
+    for &f in &swapped {
+        let (a, b) = (f.saturating_sub(3), (f + 3).min(raw.len() - 1));
+        assert!(
+            pelvis_depth(b) > pelvis_depth(a),
+            "frame {f} swapped while walking towards the sensor: {swapped:?}"
+        );
     }
 }
 

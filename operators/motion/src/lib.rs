@@ -64,7 +64,10 @@ pub use csv::{CsvAppender, read_csv, write_csv};
 pub use error::{Error, Result};
 pub use lap::{there_and_back, walkway_laps, walkway_loop};
 pub use markers::{Landmark, MARKER_NAMES, MarkerGaps, MarkerSet};
-pub use sdk::{SdkClip, SdkFrame, is_timed, parse_sdk_skeletons, read_sdk_skeletons, sdk_clip};
+pub use sdk::{
+    SdkClip, SdkFrame, is_timed, parse_sdk_skeletons, read_sdk_skeletons, sdk_clip,
+    swap_sides_walking_away,
+};
 pub use trc::{read_trc, write_trc};
 pub use trigait_skeleton::{Joint, MotionClip};
 pub use walker::{WalkerParams, walker};

@@ -199,8 +199,75 @@ pub fn sdk_clip(
     rate_hz: f64,
     drop_inferred: bool,
 ) -> Result<SdkClip> {
+    let placement = place(frames, rate_hz);
+    let (mut dropped, mut kept) = (0, 0);
+    let rows = placement.rows(frames, drop_inferred, &mut dropped, &mut kept);
+    finish_clip(
+        name,
+        rate_hz,
+        Joint::ALL.to_vec(),
+        rows,
+        placement.repeated,
+        (dropped, kept),
+    )
+}
+
+/// Swaps the left and right labels back in every frame recorded while the person walked away
+/// from the sensor, as [`sdk_clip`] does for its clip, for a consumer that takes the frames
+/// one by one (a replay into a dataflow). `rate_hz` places untimed frames, as for
+/// [`sdk_clip`]; inferred joints count. Returns how many frames were swapped.
+pub fn swap_sides_walking_away(frames: &mut [SdkFrame], rate_hz: f64) -> usize {
+    let placement = place(frames, rate_hz);
+    let (mut dropped, mut kept) = (0, 0);
+    let mut rows = placement.rows(frames, false, &mut dropped, &mut kept);
+    let runs = swap_sides_walking_backwards(&mut rows, rate_hz);
+    let mut swapped = 0;
+    for (frame, slot) in frames.iter_mut().zip(&placement.slots) {
+        if slot.is_some_and(|(s, _)| runs.iter().any(|r| r.contains(&s))) {
+            for sample in &mut frame.joints {
+                sample.joint = sample.joint.mirrored();
+            }
+            swapped += 1;
+        }
+    }
+    swapped
+}
+
+/// Where the frames of a log go in its clip.
+struct Placement {
+    /// Per frame: its row, and whether it was placed there (`false`: it repeats the frame that
+    /// was); `None` for a frame without a skeleton or outside the clip.
+    slots: Vec<Option<(usize, bool)>>,
+    /// Rows of the clip.
+    span: usize,
+    /// Frames not placed because they repeat another.
+    repeated: usize,
+}
+
+impl Placement {
+    /// The placed frames' world rows (an empty row: a frame with every joint missing).
+    fn rows(
+        &self,
+        frames: &[SdkFrame],
+        drop_inferred: bool,
+        dropped: &mut usize,
+        kept: &mut usize,
+    ) -> Vec<Option<Vec<Option<Point3<f64>>>>> {
+        let mut rows = vec![None; self.span];
+        for (frame, slot) in frames.iter().zip(&self.slots) {
+            if let Some((row, true)) = slot {
+                rows[*row] = Some(world_row(frame, drop_inferred, dropped, kept));
+            }
+        }
+        rows
+    }
+}
+
+/// Places `frames`: by frame number (a repeated number keeps its first line), or for a timed
+/// log by [`place_timed`].
+fn place(frames: &[SdkFrame], rate_hz: f64) -> Placement {
     if is_timed(frames) {
-        return timed_clip(name, frames, rate_hz, drop_inferred);
+        return place_timed(frames, rate_hz);
     }
     let first = frames.iter().map(|f| f.frame_number).min().unwrap_or(0);
     let last = frames.iter().map(|f| f.frame_number).max().unwrap_or(0);
@@ -209,23 +276,26 @@ pub fn sdk_clip(
         .unwrap_or(usize::MAX)
         .min(3600 * 30)
         + 1;
-    let joints = Joint::ALL.to_vec();
-    let mut rows: Vec<Option<Vec<Option<Point3<f64>>>>> = vec![None; span];
-    let (mut repeated, mut dropped, mut kept) = (0, 0, 0);
-    for frame in frames {
-        let Ok(index) = usize::try_from(frame.frame_number - first) else {
-            continue;
-        };
-        let Some(slot) = rows.get_mut(index) else {
-            continue;
-        };
-        if slot.is_some() {
-            repeated += 1;
-            continue;
-        }
-        *slot = Some(world_row(frame, drop_inferred, &mut dropped, &mut kept));
+    let mut taken = vec![false; span];
+    let mut repeated = 0;
+    let slots = frames
+        .iter()
+        .map(|frame| {
+            let row = usize::try_from(frame.frame_number - first)
+                .ok()
+                .filter(|&r| r < span)?;
+            if std::mem::replace(&mut taken[row], true) {
+                repeated += 1;
+                return Some((row, false));
+            }
+            Some((row, true))
+        })
+        .collect();
+    Placement {
+        slots,
+        span,
+        repeated,
     }
-    finish_clip(name, rate_hz, joints, rows, repeated, (dropped, kept))
 }
 
 /// The clip of the placed rows (an empty slot is a frame with every joint missing) and the
@@ -377,51 +447,62 @@ fn world_row(
     row
 }
 
-/// [`sdk_clip`] for timed logs: a line repeating the previous line's skeleton exactly is the
-/// logger polling faster than the Kinect (counted as repeated, dropped), a line without a body
-/// is a gap, and each remaining skeleton goes to the `rate_hz` slot nearest its time stamp, or
-/// the next when that is taken (with neither free it is counted as repeated).
-fn timed_clip(
-    name: &str,
-    frames: &[SdkFrame],
-    rate_hz: f64,
-    drop_inferred: bool,
-) -> Result<SdkClip> {
+/// [`place`] for timed logs: a line repeating the previous line's skeleton exactly is the
+/// logger polling faster than the Kinect (counted as repeated, not placed), a line without a
+/// body is a gap, and each remaining skeleton goes to the `rate_hz` slot nearest its time stamp,
+/// or the next when that is taken (with neither free it is counted as repeated).
+fn place_timed(frames: &[SdkFrame], rate_hz: f64) -> Placement {
     let times: Vec<f64> = frames.iter().filter_map(|f| f.time_ms).collect();
     let t0 = times.iter().copied().fold(f64::INFINITY, f64::min);
     let t1 = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let slot_of = |t: f64| ((t - t0) / 1000.0 * rate_hz).round();
     // A corrupt time stamp must not allocate the world: cap the span at an hour of frames.
     let span = (slot_of(t1).max(0.0).min(3600.0 * rate_hz.max(1.0)) as usize) + 1;
-    let joints = Joint::ALL.to_vec();
-    let mut rows: Vec<Option<Vec<Option<Point3<f64>>>>> = vec![None; span];
-    let (mut repeated, mut dropped, mut kept) = (0, 0, 0);
-    let mut previous: Option<&Vec<JointSample>> = None;
+    let mut taken = vec![false; span];
+    let mut repeated = 0;
+    let mut previous: Option<(&Vec<JointSample>, usize)> = None;
+    let mut slots = Vec::with_capacity(frames.len());
     for frame in frames {
         if frame.joints.is_empty() {
             previous = None;
+            slots.push(None);
             continue;
         }
-        if previous.is_some_and(|p| *p == frame.joints) {
+        if let Some((joints, row)) = previous
+            && *joints == frame.joints
+        {
             repeated += 1;
+            slots.push(Some((row, false)));
             continue;
         }
-        previous = Some(&frame.joints);
         let slot = slot_of(frame.time_ms.unwrap_or(t0));
         if slot < 0.0 {
+            previous = None;
+            slots.push(None);
             continue;
         }
         // The polling jitters by up to a Kinect period: a skeleton whose slot the previous one
         // took belongs to the next.
         let slot = slot as usize;
-        let Some(free) = (slot..=slot + 1).find(|&k| rows.get(k).is_some_and(Option::is_none))
-        else {
-            repeated += 1;
-            continue;
-        };
-        rows[free] = Some(world_row(frame, drop_inferred, &mut dropped, &mut kept));
+        match (slot..=slot + 1).find(|&k| taken.get(k).is_some_and(|t| !t)) {
+            Some(free) => {
+                taken[free] = true;
+                previous = Some((&frame.joints, free));
+                slots.push(Some((free, true)));
+            }
+            None => {
+                repeated += 1;
+                let row = slot.min(span - 1);
+                previous = Some((&frame.joints, row));
+                slots.push(Some((row, false)));
+            }
+        }
     }
-    finish_clip(name, rate_hz, joints, rows, repeated, (dropped, kept))
+    Placement {
+        slots,
+        span,
+        repeated,
+    }
 }
 
 #[cfg(test)]
@@ -531,6 +612,13 @@ mod tests {
         let read = sdk_clip("away", &as_sdk(&away, true), 30.0, false).unwrap();
         assert_eq!(read.swapped_frames, away.frame_count());
         assert!(same(&read.clip, &away));
+        // Frame by frame (a replay's path): the SDK's own frames with the labels put back.
+        let mut frames = as_sdk(&away, true);
+        assert_eq!(
+            swap_sides_walking_away(&mut frames, 30.0),
+            away.frame_count()
+        );
+        assert_eq!(frames, as_sdk(&away, false));
         // Towards: turned round, from 6 m.
         let turned = nalgebra::Isometry3::from_parts(
             nalgebra::Translation3::new(6.0 + start.x, start.y, 0.0),
@@ -543,6 +631,10 @@ mod tests {
         let read = sdk_clip("towards", &as_sdk(&towards, false), 30.0, false).unwrap();
         assert_eq!(read.swapped_frames, 0);
         assert!(same(&read.clip, &towards));
+        assert_eq!(
+            swap_sides_walking_away(&mut as_sdk(&towards, false), 30.0),
+            0
+        );
         // Standing still, mirrored or not: no walking direction, nothing swapped.
         let still: Vec<SdkFrame> = (0..30)
             .map(|f| SdkFrame {
@@ -602,6 +694,15 @@ mod tests {
             "{:?}",
             read.swapped_runs
         );
+        // Frame by frame (a replay's path), the same frames are swapped, repeated lines with
+        // the line they repeat: the clip of the swapped frames needs no more swapping and is
+        // the clip above.
+        let mut frames = frames;
+        let swapped = swap_sides_walking_away(&mut frames, 30.0);
+        assert!(swapped >= read.swapped_frames, "{swapped}");
+        let again = sdk_clip("chu", &frames, 30.0, true).unwrap();
+        assert_eq!(again.swapped_frames, 0, "{:?}", again.swapped_runs);
+        assert!(same(&again.clip, clip));
     }
 
     /// A short line and a non-number are errors naming the line, never panics.
