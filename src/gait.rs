@@ -725,27 +725,16 @@ fn table(args: &Args, notes: &[String], a: &GaitAnalysis) -> String {
         "{:<24} {:>8} {:>8} {:>8} {:>8} {:>8} {:>4}",
         "parameter (unit)", "mean", "SD", "left", "right", "asym. %", "n"
     );
-    let rows: [(&str, &Stat, f64, usize); 9] = [
-        ("stride length (m)", &s.stride_length_m, 1.0, 3),
-        ("step length (m)", &s.step_length_m, 1.0, 3),
-        ("step width (m)", &s.step_width_m, 1.0, 3),
-        ("cadence (steps/min)", &s.cadence_steps_per_min, 1.0, 1),
-        ("speed (m/s)", &s.speed_mps, 1.0, 3),
-        ("stride time (s)", &s.stride_time_secs, 1.0, 3),
-        ("stance (%)", &s.stance_pct, 1.0, 1),
-        ("swing (%)", &s.swing_pct, 1.0, 1),
-        ("double support (%)", &s.double_support_pct, 1.0, 1),
-    ];
-    for (name, stat, scale, digits) in rows {
-        let scaled = |v: Option<f64>| v.map(|v| v * scale);
+    for row in s.rows() {
+        let stat = row.stat;
         let _ = writeln!(
             out,
             "{:<24} {:>8} {:>8} {:>8} {:>8} {:>8} {:>4}",
-            name,
-            cell(scaled(stat.mean), digits),
-            cell(scaled(stat.sd), digits),
-            cell(scaled(stat.left), digits),
-            cell(scaled(stat.right), digits),
+            row.label,
+            cell(stat.mean, row.digits),
+            cell(stat.sd, row.digits),
+            cell(stat.left, row.digits),
+            cell(stat.right, row.digits),
             cell(stat.asymmetry_pct, 1),
             format!("{}{}", stat.n, if stat.from_steps { "*" } else { "" })
         );

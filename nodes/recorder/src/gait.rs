@@ -27,8 +27,8 @@ use std::collections::BTreeMap;
 
 use rerun::Color;
 use trigait_gait::{
-    CYCLE_SAMPLES, EventKind, EventMethod, Foot, LiveGait, LiveGaitParams, LiveReport, Stat,
-    Summary, TimedEvent, flexion_cycles,
+    CYCLE_SAMPLES, EventKind, EventMethod, Foot, LiveGait, LiveGaitParams, LiveReport, Summary,
+    TimedEvent, flexion_cycles,
 };
 use trigait_schema::FusedPose;
 
@@ -329,21 +329,7 @@ pub fn parameter_table(summary: &Summary, method: EventMethod, scope: &str) -> S
         EventMethod::Velocity => "the foot-velocity method (after Ghoussayni et al. 2004)",
         EventMethod::Auto => "the method chosen for walking or running",
     };
-    let rows: [(&str, &Stat, usize); 9] = [
-        ("stride length (m)", &summary.stride_length_m, 3),
-        ("step length (m)", &summary.step_length_m, 3),
-        ("step width (m)", &summary.step_width_m, 3),
-        ("cadence (steps/min)", &summary.cadence_steps_per_min, 1),
-        ("walking speed (m/s)", &summary.speed_mps, 2),
-        ("stride time (s)", &summary.stride_time_secs, 3),
-        ("stance (% of stride)", &summary.stance_pct, 1),
-        ("swing (% of stride)", &summary.swing_pct, 1),
-        (
-            "double support (% of stride)",
-            &summary.double_support_pct,
-            1,
-        ),
-    ];
+    let rows = summary.rows();
     let cell = |v: Option<f64>, digits: usize| {
         v.map_or_else(|| "–".to_owned(), |v| format!("{v:.digits$}"))
     };
@@ -354,7 +340,8 @@ pub fn parameter_table(summary: &Summary, method: EventMethod, scope: &str) -> S
          |---|---:|---:|---:|---:|---:|\n",
         summary.strides, summary.left_strides, summary.right_strides, summary.steps
     );
-    for (name, stat, digits) in rows {
+    for row in &rows {
+        let (name, stat, digits) = (row.label, row.stat, row.digits);
         let note = if stat.from_steps { " ¹" } else { "" };
         out.push_str(&format!(
             "| {name}{note} | {} | {} | {} | {} | {} |\n",
@@ -365,7 +352,7 @@ pub fn parameter_table(summary: &Summary, method: EventMethod, scope: &str) -> S
             cell(stat.asymmetry_pct, 1),
         ));
     }
-    if rows.iter().any(|(_, s, _)| s.from_steps) {
+    if rows.iter().any(|r| r.stat.from_steps) {
         out.push_str("\n¹ from single steps: no complete stride gave this figure.\n");
     }
     out
@@ -478,7 +465,7 @@ mod tests {
         for head in [
             "stride length (m)",
             "cadence (steps/min)",
-            "walking speed (m/s)",
+            "speed (m/s)",
             "asymmetry (%)",
         ] {
             assert!(t.contains(head), "{t}");

@@ -90,8 +90,8 @@ pub use events::{
 pub use floor::FloorLevel;
 pub use live::{FootCounts, LiveAnalysis, LiveGait, LiveGaitParams, LiveReport, TimedEvent};
 pub use params::{
-    Comparison, GaitAnalysis, GaitParams, Stat, Step, Stride, Summary, Tolerances, analyse,
-    analyse_landmarks, compare, strides, summarise, summarise_with_steps,
+    Comparison, GaitAnalysis, GaitParams, Stat, Step, Stride, Summary, SummaryRow, Tolerances,
+    analyse, analyse_landmarks, compare, strides, summarise, summarise_with_steps,
 };
 pub use physics::{FlightPhase, PhysicsParams};
 pub use segment::{

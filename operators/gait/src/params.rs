@@ -175,6 +175,42 @@ pub struct Summary {
     pub double_support_pct: Stat,
 }
 
+/// One parameter of a [`Summary`] as its tables show it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SummaryRow<'a> {
+    /// The parameter and its unit, e.g. `"stride length (m)"`.
+    pub label: &'static str,
+    /// Its figures.
+    pub stat: &'a Stat,
+    /// Decimals shown: millimetres for lengths and speed, milliseconds for times, tenths for
+    /// cadence and percentages.
+    pub digits: usize,
+}
+
+impl Summary {
+    /// Every parameter in the order, with the labels and decimals, that every table of them
+    /// uses: `trigait gait`'s text, the HTML report and the recorder's live table.
+    #[must_use]
+    pub fn rows(&self) -> [SummaryRow<'_>; 9] {
+        let row = |label, stat, digits| SummaryRow {
+            label,
+            stat,
+            digits,
+        };
+        [
+            row("stride length (m)", &self.stride_length_m, 3),
+            row("step length (m)", &self.step_length_m, 3),
+            row("step width (m)", &self.step_width_m, 3),
+            row("cadence (steps/min)", &self.cadence_steps_per_min, 1),
+            row("speed (m/s)", &self.speed_mps, 3),
+            row("stride time (s)", &self.stride_time_secs, 3),
+            row("stance (%)", &self.stance_pct, 1),
+            row("swing (%)", &self.swing_pct, 1),
+            row("double support (%)", &self.double_support_pct, 1),
+        ]
+    }
+}
+
 /// Summarises strides: mean, sd and asymmetry of every parameter.
 #[must_use]
 pub fn summarise(strides: &[Stride]) -> Summary {

@@ -5,7 +5,7 @@ use std::fmt::Write;
 
 use trigait_skeleton::MotionClip;
 
-use crate::{GaitAnalysis, Result, Stat, plot};
+use crate::{GaitAnalysis, Result, SummaryRow, plot};
 
 /// One line per data-quality fact of `a` (and the reading `notes`): what the report's
 /// data-quality section and the table's footer say.
@@ -168,18 +168,12 @@ pub fn html(
          <th>asymmetry %</th><th>n</th></tr></thead>\n<tbody>\n",
         s.strides, s.left_strides, s.right_strides, s.steps
     );
-    let rows: [(&str, &Stat, usize); 9] = [
-        ("stride length (m)", &s.stride_length_m, 3),
-        ("step length (m)", &s.step_length_m, 3),
-        ("step width (m)", &s.step_width_m, 3),
-        ("cadence (steps/min)", &s.cadence_steps_per_min, 1),
-        ("speed (m/s)", &s.speed_mps, 3),
-        ("stride time (s)", &s.stride_time_secs, 3),
-        ("stance (%)", &s.stance_pct, 1),
-        ("swing (%)", &s.swing_pct, 1),
-        ("double support (%)", &s.double_support_pct, 1),
-    ];
-    for (name, stat, digits) in rows {
+    for SummaryRow {
+        label: name,
+        stat,
+        digits,
+    } in s.rows()
+    {
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
