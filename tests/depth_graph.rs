@@ -1,4 +1,4 @@
-//! Depth metrics over the dataflow (issue 6, items 1 and 8): `dataflows/depth.yml` runs three
+//! Depth metrics over the dataflow: `dataflows/depth.yml` runs three
 //! simulated sensors and one replay of the real Panoptic frames into the `depth-metrics` node;
 //! the tests read its `depth-metrics.json` and `depth.rrd` back. Also `trigait depth-metrics
 //! --rrd` on simulated PNGs.
@@ -42,7 +42,7 @@ fn within(measured: f64, truth: f64, rel: f64) -> bool {
 /// matches the configured one within 15 %, there are no sequence gaps and no refused frames,
 /// and each sensor streamed for at least 6 s of the 12 s run.
 #[test]
-fn issue_6_depth_frames_arrive_from_every_sensor() {
+fn depth_frames_arrive_from_every_sensor() {
     let (_, v) = report();
     for (sensor, rate) in [("k1", 10.0), ("k2", 10.0), ("k3", 10.0), ("panoptic", 5.0)] {
         let e = &v["sensors"][sensor];
@@ -75,7 +75,7 @@ fn issue_6_depth_frames_arrive_from_every_sensor() {
 /// of all three simulated sensors, the ring amplitude and period of the two wall sensors and
 /// the wall distance.
 #[test]
-fn issue_6_metrics_over_the_dataflow_recover_the_injected_noise() {
+fn metrics_over_the_dataflow_recover_the_injected_noise() {
     let (_, v) = report();
     for (sensor, sd) in [("k1", 1.5), ("k2", 1.2), ("k3", 2.5)] {
         let acc = &v["sensors"][sensor]["report"]["accuracy"];
@@ -112,7 +112,7 @@ fn issue_6_metrics_over_the_dataflow_recover_the_injected_noise() {
 /// (1.5 m · |d| / 1.0 m along the axis) at 90° minus the sensor's pitch — numbers that come
 /// from the pose, not from anything the node was told about the floor.
 #[test]
-fn issue_6_floor_scene_follows_the_rig_pose() {
+fn floor_scene_follows_the_rig_pose() {
     let (_, v) = report();
     let d = [2.3_f64, -2.135, -1.0];
     let len = d.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -134,7 +134,7 @@ fn issue_6_floor_scene_follows_the_rig_pose() {
 /// The real Panoptic frames arrive unchanged: the valid-pixel share the node reports equals
 /// the mean over exactly the files it received (file `seq mod 10`), read here from the PNGs.
 #[test]
-fn issue_6_replayed_real_frames_arrive_unchanged() {
+fn replayed_real_frames_arrive_unchanged() {
     let (_, v) = report();
     let dir = common::workspace().join("../shared/data/kinect-v2-panoptic-10-sensors");
     let e = &v["sensors"]["panoptic"];
@@ -158,7 +158,7 @@ fn issue_6_replayed_real_frames_arrive_unchanged() {
 /// `RERUN: rrd` wrote `depth.rrd` with, per sensor, one image row per map and one scalar row per
 /// report number for every report the JSON counts, and each map's legend once (static).
 #[test]
-fn issue_6_depth_rrd_holds_the_maps() {
+fn depth_rrd_holds_the_maps() {
     let (run, v) = report();
     let Rrd {
         temporal, statics, ..
@@ -216,7 +216,7 @@ fn write_wall_frames(dir: &Path, frames: usize) {
 /// maps of the sequence and its scalars once each; the ring amplitude logged is the one in the
 /// JSON (same code path). An `--rrd` path under a regular file is a clear error.
 #[test]
-fn issue_6_cli_rrd_writes_the_maps() {
+fn cli_rrd_writes_the_maps() {
     let dir = scratch("cli");
     let frames = dir.join("frames");
     std::fs::create_dir_all(&frames).unwrap();

@@ -1,5 +1,5 @@
 //! `trigait depth-metrics` end to end: the built binary on the real recordings in
-//! `../shared/data` and on bad input (issue 6 acceptance).
+//! `../shared/data` and on bad input (an acceptance run).
 
 // Test helpers outside `#[test]` functions panic on failure by design.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -21,7 +21,7 @@ fn scratch(name: &str) -> PathBuf {
 /// and noise figures, and floor heights at the dome centre that agree within 2 cm, stated as
 /// `floor_height_spread_m`.
 #[test]
-fn issue_6_panoptic_floor_heights_via_cli() {
+fn panoptic_floor_heights_via_cli() {
     let Some(calib) = trigait_test_data::shared_file(
         "kinect-v2-panoptic-10-sensors/kcalibration_171026_cello3.json",
     ) else {
@@ -80,7 +80,7 @@ fn issue_6_panoptic_floor_heights_via_cli() {
 /// The person frame with its mask reports the edge-noise band around the person, and `--out`
 /// writes the colour maps that the JSON describes.
 #[test]
-fn issue_6_person_edge_band_via_cli() {
+fn person_edge_band_via_cli() {
     let Some(depth) = trigait_test_data::shared_file("kinect-v2-depth-person/004378_depth.png")
     else {
         return;

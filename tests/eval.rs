@@ -1,4 +1,4 @@
-//! `trigait eval` as a user runs it: the acceptance runs of issue 3 on the real mocap
+//! `trigait eval` as a user runs it: the acceptance runs on the real mocap
 //! recordings, and clear errors for bad input.
 
 // Test helpers outside `#[test]` functions panic on failure by design.
@@ -40,7 +40,7 @@ fn f(v: &Value, key: &str) -> f64 {
         .unwrap_or_else(|| panic!("{key} is not a number in {v}"))
 }
 
-/// Issue 3's acceptance criteria on one motion and rig: the four methods are reported with
+/// The acceptance criteria on one motion and rig: the four methods are reported with
 /// RMSE, CRB and best-single-sensor figures; fusion is within 10 % of its Cramér–Rao bound and
 /// at least 38 % below linear trilateration.
 fn check_acceptance(report: &Value) {
@@ -65,9 +65,9 @@ fn check_acceptance(report: &Value) {
     assert!(f(fusion, "gain_over_linear") >= 0.38);
 }
 
-/// `trigait eval --motion 07_01.c3d --rig thesis --trials 20 --json` (issue 3 acceptance).
+/// `trigait eval --motion 07_01.c3d --rig thesis --trials 20 --json` (an acceptance run).
 #[test]
-fn issue_3_cmu_walk_on_thesis_rig() {
+fn cmu_walk_on_thesis_rig() {
     let Some(c3d) = trigait_test_data::shared_file("mocap-cmu-07_01/07_01.c3d") else {
         return;
     };
@@ -85,9 +85,9 @@ fn issue_3_cmu_walk_on_thesis_rig() {
     check_acceptance(&report);
 }
 
-/// `trigait eval --motion Rajagopal…trc --rig ring-6 --trials 20 --json` (issue 3 acceptance).
+/// `trigait eval --motion Rajagopal…trc --rig ring-6 --trials 20 --json` (an acceptance run).
 #[test]
-fn issue_3_rajagopal_walk_on_ring_6() {
+fn rajagopal_walk_on_ring_6() {
     let Some(trc) = trigait_test_data::shared_file(
         "mocap-opensim-rajagopal-walk/Rajagopal__motion_capture_walk.trc",
     ) else {

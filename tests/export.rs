@@ -76,10 +76,10 @@ fn heel_strike_times(path: &Path, extra: &[&str]) -> Vec<f64> {
         .collect()
 }
 
-/// Issue 5 acceptance: TRC and C3D exports of the CMU walk's joint centres read back within
+/// Acceptance: TRC and C3D exports of the CMU walk's joint centres read back within
 /// 1e-4 m (TRC with our reader, C3D through c3dio), CSV too, and the gait events survive.
 #[test]
-fn issue_5_exports_round_trip() {
+fn exports_round_trip() {
     let Some(source) = trigait_test_data::shared_file("mocap-cmu-07_01/07_01.c3d") else {
         return;
     };

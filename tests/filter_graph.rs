@@ -1,5 +1,4 @@
-//! Graph tests of the smoothing stage and the recorder's gait analysis (issue 5, build items 4
-//! and 6): `dataflows/filtered.yml` is `dataflow.yml` with a `filter` node (One-Euro) between
+//! Graph tests of the smoothing stage and the recorder's gait analysis: `dataflows/filtered.yml` is `dataflow.yml` with a `filter` node (One-Euro) between
 //! `trilaterate` and `recorder`. Both graphs run headless (`dora run --stop-after`, 12 s and 24 s);
 //! the recorder's `summary.json`, `trajectory.csv` and `.rrd` are read back.
 //!

@@ -125,16 +125,16 @@ fn check_walk(relative: &str, heels: [&str; 2]) {
     }
 }
 
-/// Issue 5 acceptance: every heel strike of each foot in CMU 07_01, with cadence, stride length
+/// Acceptance: every heel strike of each foot in CMU 07_01, with cadence, stride length
 /// and speed reported.
 #[test]
-fn issue_5_cmu_heel_strikes_and_parameters() {
+fn cmu_heel_strikes_and_parameters() {
     check_walk("mocap-cmu-07_01/07_01.c3d", ["LHEE", "RHEE"]);
 }
 
-/// Issue 5 acceptance: the same for the OpenSim Rajagopal walk (TRC, Y-up file).
+/// Acceptance: the same for the OpenSim Rajagopal walk (TRC, Y-up file).
 #[test]
-fn issue_5_rajagopal_heel_strikes_and_parameters() {
+fn rajagopal_heel_strikes_and_parameters() {
     check_walk(
         "mocap-opensim-rajagopal-walk/Rajagopal__motion_capture_walk.trc",
         ["L.Heel", "R.Heel"],
@@ -396,12 +396,12 @@ fn standing_gaps_and_short_walks_are_clear_errors() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// Issue 5 acceptance: the same walk through the simulated Kinect pipeline (thesis rig, Kinect
+/// Acceptance: the same walk through the simulated Kinect pipeline (thesis rig, Kinect
 /// v2 noise, fusion estimator, 30 Hz, 6 Hz zero-lag Butterworth) gives stride length within
 /// 3 cm, cadence within 2 % and step width within 2 cm of the marker parameters, for five noise
 /// seeds of each walk, and finds the same heel strikes.
 #[test]
-fn issue_5_kinect_pipeline_matches_markers() {
+fn kinect_pipeline_matches_markers() {
     for relative in [
         "mocap-cmu-07_01/07_01.c3d",
         "mocap-opensim-rajagopal-walk/Rajagopal__motion_capture_walk.trc",

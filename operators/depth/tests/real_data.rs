@@ -8,11 +8,11 @@ use trigait_depth::edge::{EdgeParams, edge_noise};
 use trigait_depth::io::{list_pngs, read_depth_png, read_mask_png};
 use trigait_depth::panoptic::{FloorParams, floor_check, read_panoptic_calibration};
 
-/// Issue 6 acceptance: the 10 Panoptic sensors' floors, each fitted after undoing the lens
+/// Acceptance: the 10 Panoptic sensors' floors, each fitted after undoing the lens
 /// distortion and mapping to world with `M_depth · M_world2sensor`, agree on the floor height
 /// at the dome centre within 2 cm, near y = −1.03 m.
 #[test]
-fn issue_6_panoptic_floor_heights_agree() {
+fn panoptic_floor_heights_agree() {
     let Some(calib) = trigait_test_data::shared_file(
         "kinect-v2-panoptic-10-sensors/kcalibration_171026_cello3.json",
     ) else {
@@ -76,11 +76,11 @@ fn issue_6_panoptic_floor_heights_agree() {
     assert!(ignored.floor_height_spread_m > check.floor_height_spread_m);
 }
 
-/// Issue 6 acceptance: the standing person's frame with its mask shows the no-data band of
+/// Acceptance: the standing person's frame with its mask shows the no-data band of
 /// §5.1.4 around the person: a rim of several hundred pixels, a clear share of it touching
 /// no-data pixels, and a band a few pixels wide (the thesis reports 1–2 px on a flat target).
 #[test]
-fn issue_6_person_edge_band_with_mask() {
+fn person_edge_band_with_mask() {
     let Some(depth) = trigait_test_data::shared_file("kinect-v2-depth-person/004378_depth.png")
     else {
         return;

@@ -141,7 +141,7 @@ fn sensors(clocks: &[(i64, f64)], link: LinkDelay, seed: u64) -> Vec<Sensor> {
         .collect()
 }
 
-/// Issue 4 acceptance, measured: five sensors at ±50 ms offsets and up to ±100 ppm drift on the
+/// Acceptance, measured: five sensors at ±50 ms offsets and up to ±100 ppm drift on the
 /// thesis LAN model (asymmetric base delay, gamma tail, 2 % congestion spikes of ~3 ms); over 60 s
 /// at 30 Hz with an exchange every 0.5 s and 2 s warm-up, ≥ 99 % of frames are mapped within
 /// 1 ms (measured: 100 %, p99 ≈ 0.1 ms, max 0.25 ms), and the reported uncertainty (median
