@@ -739,6 +739,20 @@ fn table(args: &Args, notes: &[String], a: &GaitAnalysis) -> String {
             format!("{}{}", stat.n, if stat.from_steps { "*" } else { "" })
         );
     }
+    if a.timing.implausible {
+        let timed: Vec<&str> = s
+            .rows()
+            .iter()
+            .filter(|r| r.timed)
+            .map(|r| r.label)
+            .collect();
+        let _ = writeln!(
+            out,
+            "\nTIMING IMPLAUSIBLE (see the note above): {} scale with the time base and are \
+             wrong with it; the lengths, the width and the phase percentages are not",
+            timed.join(", ")
+        );
+    }
     if let Some(dir) = &args.plots {
         let _ = writeln!(out, "\nplots written to {}", dir.display());
     }

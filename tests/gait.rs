@@ -456,6 +456,11 @@ fn an_untimed_log_gets_its_clock_checked_and_given() {
     let stdout = String::from_utf8_lossy(&text.stdout);
     assert!(stdout.contains("TIMING IMPLAUSIBLE at 30 Hz"), "{stdout}");
     assert!(
+        stdout
+            .contains("cadence (steps/min), speed (m/s), stride time (s) scale with the time base"),
+        "{stdout}"
+    );
+    assert!(
         stdout.contains("rate assumed (--rate to give it)"),
         "{stdout}"
     );

@@ -185,6 +185,10 @@ pub struct SummaryRow<'a> {
     /// Decimals shown: millimetres for lengths and speed, milliseconds for times, tenths for
     /// cadence and percentages.
     pub digits: usize,
+    /// Whether the figure scales with the clip's time base (a duration, or something per
+    /// second or minute): wrong with it when the frame rate is wrong. Lengths and the phase
+    /// percentages are not.
+    pub timed: bool,
 }
 
 impl Summary {
@@ -192,21 +196,22 @@ impl Summary {
     /// uses: `trigait gait`'s text, the HTML report and the recorder's live table.
     #[must_use]
     pub fn rows(&self) -> [SummaryRow<'_>; 9] {
-        let row = |label, stat, digits| SummaryRow {
+        let row = |label, stat, digits, timed| SummaryRow {
             label,
             stat,
             digits,
+            timed,
         };
         [
-            row("stride length (m)", &self.stride_length_m, 3),
-            row("step length (m)", &self.step_length_m, 3),
-            row("step width (m)", &self.step_width_m, 3),
-            row("cadence (steps/min)", &self.cadence_steps_per_min, 1),
-            row("speed (m/s)", &self.speed_mps, 3),
-            row("stride time (s)", &self.stride_time_secs, 3),
-            row("stance (%)", &self.stance_pct, 1),
-            row("swing (%)", &self.swing_pct, 1),
-            row("double support (%)", &self.double_support_pct, 1),
+            row("stride length (m)", &self.stride_length_m, 3, false),
+            row("step length (m)", &self.step_length_m, 3, false),
+            row("step width (m)", &self.step_width_m, 3, false),
+            row("cadence (steps/min)", &self.cadence_steps_per_min, 1, true),
+            row("speed (m/s)", &self.speed_mps, 3, true),
+            row("stride time (s)", &self.stride_time_secs, 3, true),
+            row("stance (%)", &self.stance_pct, 1, false),
+            row("swing (%)", &self.swing_pct, 1, false),
+            row("double support (%)", &self.double_support_pct, 1, false),
         ]
     }
 }

@@ -127,6 +127,8 @@ fn page_head(title: &str) -> String {
          th:first-child, td:first-child {{ text-align: left; }}\n\
          figure {{ margin: 1em 0; }}\n\
          svg {{ max-width: 100%; height: auto; }}\n\
+         .warning {{ border: 2px solid #c00; background: #fee; padding: 0.5em 1em; }}\n\
+         tr.suspect td {{ color: #a00; }}\n\
          </style>\n</head>\n<body>\n",
         t = escape(title)
     )
@@ -160,9 +162,27 @@ pub fn html(
         f = escape(filter),
     );
     let s = &a.summary;
+    h.push_str("<h2>Parameters</h2>\n");
+    if a.timing.implausible {
+        let _ = writeln!(
+            h,
+            "<p class=\"warning\"><strong>The time base looks wrong.</strong> At {:.0} Hz the \
+             median swing lasts {} and the median step {}, faster than any human leg. The \
+             stride time, the cadence and the speed (marked red) are wrong with it; the lengths, \
+             the width and the stance and swing percentages do not depend on it. For Kinect text \
+             without time stamps, give the true frame rate with <code>--rate</code>.</p>",
+            a.rate_hz,
+            a.timing
+                .median_swing_secs
+                .map_or_else(|| "-".to_owned(), |t| format!("{t:.2} s")),
+            a.timing
+                .median_step_secs
+                .map_or_else(|| "-".to_owned(), |t| format!("{t:.2} s")),
+        );
+    }
     let _ = write!(
         h,
-        "<h2>Parameters</h2>\n<p>{} strides ({} left, {} right), {} steps. n is the number of \
+        "<p>{} strides ({} left, {} right), {} steps. n is the number of \
          strides a figure rests on, or of steps where marked *.</p>\n<table>\n<thead><tr>\
          <th>parameter</th><th>mean</th><th>sd</th><th>left</th><th>right</th>\
          <th>asymmetry %</th><th>n</th></tr></thead>\n<tbody>\n",
@@ -172,12 +192,18 @@ pub fn html(
         label: name,
         stat,
         digits,
+        timed,
     } in s.rows()
     {
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
+            "<tr{}><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
              <td>{}{}</td></tr>",
+            if timed && a.timing.implausible {
+                " class=\"suspect\""
+            } else {
+                ""
+            },
             escape(name),
             cell(stat.mean, digits),
             cell(stat.sd, digits),

@@ -200,3 +200,27 @@ fn straight_walk_distances_plausible_and_clock_flagged() {
     assert!(t.median_swing_secs.unwrap() < 0.2, "{t:?}");
     assert!(a.quality.rejected() >= 1, "{:?}", a.quality);
 }
+
+/// The report page of the Straight walk says above its table that the time base looks wrong
+/// and marks the three rows that scale with it (stride time, cadence, speed); the simulated
+/// walker, whose legs keep a human rhythm, gets neither.
+#[test]
+fn report_warns_of_a_wrong_time_base() {
+    let Some(path) = trigait_test_data::shared_file(STRAIGHT) else {
+        return;
+    };
+    let frames = trigait_motion::read_sdk_skeletons(&path).unwrap();
+    let sdk = trigait_motion::sdk_clip(STRAIGHT, &frames, 30.0, true).unwrap();
+    let walker =
+        trigait_motion::walker(&trigait_motion::WalkerParams::default(), 8.0, 30.0).unwrap();
+    for (clip, wrong) in [(&sdk.clip, true), (&walker, false)] {
+        let l = Landmarks::from_clip(clip).unwrap();
+        let a = analyse_landmarks(&l, &GaitParams::default()).unwrap();
+        assert_eq!(a.timing.implausible, wrong, "{:?}", a.timing);
+        let page = trigait_gait::report::html(clip.name(), "none", &[], clip, &a).unwrap();
+        trigait_gait::report::check_well_formed(&page).unwrap();
+        assert_eq!(page.contains("class=\"warning\""), wrong);
+        let marked = page.matches("<tr class=\"suspect\">").count();
+        assert_eq!(marked, if wrong { 3 } else { 0 });
+    }
+}
