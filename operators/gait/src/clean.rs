@@ -249,21 +249,8 @@ fn arrival_speed(track: &Track, f: usize, rate_hz: f64) -> Option<f64> {
 fn reject_merged_legs(left: &mut Track, right: &mut Track, rate_hz: f64) -> usize {
     let n = left.len().min(right.len());
     let together = |f: usize| matches!((left[f], right[f]), (Some(a), Some(b)) if (a - b).norm() < MERGED_ANKLES_M);
-    let mut runs = Vec::new();
-    let mut f = 0;
-    while f < n {
-        if !together(f) {
-            f += 1;
-            continue;
-        }
-        let start = f;
-        while f < n && together(f) {
-            f += 1;
-        }
-        runs.push(start..f);
-    }
     let mut rejected = 0;
-    for run in runs {
+    for run in trigait_skeleton::frame_runs(n, together) {
         let speeds = [
             arrival_speed(left, run.start, rate_hz),
             arrival_speed(right, run.start, rate_hz),
@@ -323,16 +310,8 @@ fn reject_lengths(track: &mut Track, anchor: &Track, max_change: f64, shorter: b
 fn bridge(track: &mut Track, max_gap: usize) -> usize {
     let n = track.len();
     let mut filled = 0;
-    let mut i = 0;
-    while i < n {
-        if track[i].is_some() {
-            i += 1;
-            continue;
-        }
-        let start = i;
-        while i < n && track[i].is_none() {
-            i += 1;
-        }
+    for gap in trigait_skeleton::frame_runs(n, |f| track[f].is_none()) {
+        let (start, i) = (gap.start, gap.end);
         let len = i - start;
         if start == 0 || i == n || len > max_gap {
             continue;

@@ -441,17 +441,8 @@ fn horizontal_speed_runs(
 /// `peak`, with dips shorter than `merge` samples bridged. Returns (start, end) sample indices.
 fn swings(speed: &[f64], threshold: f64, peak: f64, merge: usize) -> Vec<(usize, usize)> {
     let mut runs: Vec<(usize, usize)> = Vec::new();
-    let mut i = 0;
-    while i < speed.len() {
-        if speed[i] < threshold {
-            i += 1;
-            continue;
-        }
-        let start = i;
-        while i < speed.len() && speed[i] >= threshold {
-            i += 1;
-        }
-        let end = i - 1;
+    for run in trigait_skeleton::frame_runs(speed.len(), |i| speed[i] >= threshold) {
+        let (start, end) = (run.start, run.end - 1);
         match runs.last_mut() {
             Some(last) if start - last.1 <= merge => last.1 = end,
             _ => runs.push((start, end)),

@@ -150,26 +150,16 @@ pub(crate) fn heights(landmarks: &Landmarks, params: &PhysicsParams) -> Heights 
         .map(|f| foot_up(0, f) == Some(true) && foot_up(1, f) == Some(true))
         .collect();
     let min_frames = ((params.min_flight_secs * landmarks.rate_hz).ceil() as usize).max(2);
-    let mut flights = Vec::new();
-    let mut f = 0;
-    while f < n {
-        if !airborne[f] {
-            f += 1;
-            continue;
-        }
-        let start = f;
-        while f < n && airborne[f] {
-            f += 1;
-        }
-        if f - start >= min_frames {
-            flights.push(FlightPhase {
-                start_secs: start as f64 / landmarks.rate_hz,
-                end_secs: (f - 1) as f64 / landmarks.rate_hz,
-                first_frame: start,
-                last_frame: f - 1,
-            });
-        }
-    }
+    let flights = trigait_skeleton::frame_runs(n, |f| airborne[f])
+        .into_iter()
+        .filter(|run| run.len() >= min_frames)
+        .map(|run| FlightPhase {
+            start_secs: run.start as f64 / landmarks.rate_hz,
+            end_secs: (run.end - 1) as f64 / landmarks.rate_hz,
+            first_frame: run.start,
+            last_frame: run.end - 1,
+        })
+        .collect();
     Heights {
         rate_hz: landmarks.rate_hz,
         heel,

@@ -386,16 +386,8 @@ fn swap_sides_walking_backwards(
         })
         .collect();
     let mut backwards_runs: Vec<std::ops::Range<usize>> = Vec::new();
-    let mut f = 0;
-    while f < n {
-        if verdicts[f].is_none() {
-            f += 1;
-            continue;
-        }
-        let start = f;
-        while f < n && verdicts[f].is_some() {
-            f += 1;
-        }
+    for run in trigait_skeleton::frame_runs(n, |f| verdicts[f].is_some()) {
+        let (start, f) = (run.start, run.end);
         let said: Vec<bool> = verdicts[start..f]
             .iter()
             .flatten()

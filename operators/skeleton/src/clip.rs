@@ -377,3 +377,38 @@ mod tests {
         assert!(hl.y < hr.y);
     }
 }
+
+/// The maximal runs of consecutive frames of `0..n` where `holds` is true, in order: the
+/// stretches a clip is cut into (gaps, flights, swings, a leg merged into the other).
+pub fn frame_runs(n: usize, mut holds: impl FnMut(usize) -> bool) -> Vec<std::ops::Range<usize>> {
+    let mut runs = Vec::new();
+    let mut start = None;
+    for f in 0..n {
+        match (holds(f), start) {
+            (true, None) => start = Some(f),
+            (false, Some(s)) => {
+                runs.push(s..f);
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        runs.push(s..n);
+    }
+    runs
+}
+
+#[cfg(test)]
+mod runs_tests {
+    use super::frame_runs;
+
+    #[test]
+    fn runs_of_a_predicate() {
+        let v = [0, 1, 1, 0, 0, 1, 0, 1, 1, 1];
+        assert_eq!(frame_runs(v.len(), |f| v[f] == 1), vec![1..3, 5..6, 7..10]);
+        assert_eq!(frame_runs(v.len(), |f| v[f] == 2), Vec::new());
+        assert_eq!(frame_runs(3, |_| true), vec![0..3]);
+        assert_eq!(frame_runs(0, |_| true), Vec::new());
+    }
+}

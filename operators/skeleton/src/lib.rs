@@ -12,6 +12,6 @@ mod clip;
 mod frame;
 mod joint;
 
-pub use clip::{ClipError, MotionClip};
+pub use clip::{ClipError, MotionClip, frame_runs};
 pub use frame::{JointSample, SkeletonFrame};
 pub use joint::{Joint, Side, TrackingState};
