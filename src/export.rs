@@ -39,6 +39,16 @@ fn parse_filter(spec: &str) -> Result<Filter, String> {
     spec.parse::<Filter>().map_err(|e| e.to_string())
 }
 
+impl Format {
+    fn name(self) -> &'static str {
+        match self {
+            Format::Trc => "trc",
+            Format::C3d => "c3d",
+            Format::Csv => "csv",
+        }
+    }
+}
+
 fn format_of(path: &Path) -> Option<Format> {
     let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
     match ext.as_str() {
@@ -51,6 +61,18 @@ fn format_of(path: &Path) -> Option<Format> {
 
 /// Runs `trigait export`.
 pub fn run(args: Args) -> eyre::Result<()> {
+    crate::output::not_the_input(&args.input, &args.output)?;
+    if let (Some(asked), Some(named)) = (args.format, format_of(&args.output))
+        && asked != named
+    {
+        eyre::bail!(
+            "--format {} but {} is named as {}: the file would not be read as what it holds \
+             (drop --format, or change the extension)",
+            asked.name(),
+            args.output.display(),
+            named.name()
+        );
+    }
     let format = match args.format.or_else(|| format_of(&args.output)) {
         Some(f) => f,
         None => eyre::bail!(

@@ -17,6 +17,7 @@ mod eval;
 mod export;
 mod gait;
 mod legs;
+mod output;
 mod ranges;
 mod report;
 mod stdout;

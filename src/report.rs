@@ -68,6 +68,7 @@ impl Args {
 
 /// Runs `trigait report`.
 pub fn run(args: &Args) -> eyre::Result<()> {
+    crate::output::not_the_input(&args.file, &args.output)?;
     let gait_args = args.gait_args();
     let (input, analysis) = gait::analyse_file(&gait_args)?;
     let html = render(

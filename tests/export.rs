@@ -164,5 +164,29 @@ fn format_from_extension_and_filter() {
     let out = trigait(&["export", src, "-o", bad.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--format trc|c3d|csv"));
+    // A format the extension contradicts, and writing over the input, are refused; the input
+    // is left as it was.
+    let out = trigait(&[
+        "export",
+        src,
+        "-o",
+        raw.to_str().unwrap(),
+        "--format",
+        "csv",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--format csv but"));
+    let before = std::fs::read(&raw).unwrap();
+    for cmd in ["export", "report"] {
+        let out = trigait(&[cmd, raw.to_str().unwrap(), "-o", raw.to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(2), "{cmd}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("it is the input file"), "{cmd}: {stderr}");
+        assert_eq!(
+            std::fs::read(&raw).unwrap(),
+            before,
+            "{cmd} changed its input"
+        );
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
