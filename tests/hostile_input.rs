@@ -58,7 +58,14 @@ fn assert_clean_failure(out: &Output, expected: &str, what: &str) {
 /// Out-of-range numbers are clap errors (exit 2) that state the range.
 #[test]
 fn out_of_range_numbers_are_clap_errors() {
-    let cases: [(&[&str], &str); 8] = [
+    let cases: [(&[&str], &str); 15] = [
+        (&["calibrate", "--turn-secs", "inf"], "0..=60 s"),
+        (&["calibrate", "--turn-secs", "1e9"], "0..=60 s"),
+        (&["calibrate", "--turn-secs", "nan"], "0..=60 s"),
+        (&["calibrate", "--turn-secs=-1"], "0..=60 s"),
+        (&["calibrate", "--laps", "100000"], "1..=50"),
+        (&["calibrate", "--laps", "4294967295"], "1..=50"),
+        (&["calibrate", "--lane-m", "nan"], "0..=10 m"),
         (&["eval", "--duration-secs", "1e9"], "0.1..=600 s"),
         (&["eval", "--duration-secs", "NaN"], "0.1..=600 s"),
         (&["eval", "--rate-hz", "1e9"], "1..=1000 Hz"),

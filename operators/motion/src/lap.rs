@@ -52,6 +52,9 @@ pub fn there_and_back(clip: &MotionClip) -> Result<MotionClip> {
     )?)
 }
 
+/// The longest walk [`walkway_laps`] makes, seconds: an hour.
+pub const MAX_LAPS_SECS: f64 = 3600.0;
+
 /// A walk up and down the walkway on two lanes, `laps` times: `clip` (placed on the walkway,
 /// walking +X) shifted `lane_offset_m / 2` to the right, then a turn of `turn_secs`, then the
 /// same clip turned 180° about the vertical through the walkway centre and shifted to the other
@@ -63,7 +66,9 @@ pub fn there_and_back(clip: &MotionClip) -> Result<MotionClip> {
 /// then. With `lane_offset_m = 0` the walk goes back on the same line.
 ///
 /// # Errors
-/// [`Error::Clip`] for a clip without frames or `laps = 0`.
+/// [`Error::Clip`] for a clip without frames or `laps = 0`; [`Error::BadParameter`] for a lane
+/// offset or turn that is not a finite number of metres or seconds in range, or laps that would
+/// make the walk longer than [`MAX_LAPS_SECS`].
 pub fn walkway_laps(
     clip: &MotionClip,
     lane_offset_m: f64,
@@ -73,6 +78,27 @@ pub fn walkway_laps(
     let count = clip.frame_count();
     if count == 0 || laps == 0 {
         return Err(Error::Clip(trigait_skeleton::ClipError::Empty));
+    }
+    let bad = |name, value, reason| {
+        Err(Error::BadParameter {
+            name,
+            value,
+            reason,
+        })
+    };
+    if !(lane_offset_m.is_finite() && lane_offset_m.abs() <= 20.0) {
+        return bad("lane_offset_m", lane_offset_m, "must be within ±20 m");
+    }
+    if !(0.0..=600.0).contains(&turn_secs) {
+        return bad("turn_secs", turn_secs, "must be within 0..=600 s");
+    }
+    let total_secs = laps as f64 * 2.0 * (clip.duration_secs() + turn_secs);
+    if total_secs > MAX_LAPS_SECS {
+        return bad(
+            "laps",
+            laps as f64,
+            "the laps would last longer than an hour",
+        );
     }
     let out = Translation3::new(0.0, -lane_offset_m / 2.0, 0.0);
     let back: Isometry3<f64> = Translation3::new(0.0, lane_offset_m / 2.0, 0.0)
@@ -181,6 +207,29 @@ mod tests {
                 .unwrap()
                 .position(0, Joint::HipLeft)
         );
+    }
+
+    /// A lane, turn or lap count out of range is an error naming it, before anything is
+    /// allocated (an infinite turn or a billion laps once asked for terabytes).
+    #[test]
+    fn out_of_range_laps_are_errors() {
+        let out = walker(&WalkerParams::default(), 2.5, 100.0)
+            .unwrap()
+            .placed_on_walkway();
+        for (lane, turn, laps, name) in [
+            (f64::NAN, 1.0, 1, "lane_offset_m"),
+            (1.0, f64::INFINITY, 1, "turn_secs"),
+            (1.0, 1e9, 1, "turn_secs"),
+            (1.0, -1.0, 1, "turn_secs"),
+            (1.0, f64::NAN, 1, "turn_secs"),
+            (1.0, 1.0, 100_000, "laps"),
+            (1.0, 1.0, usize::MAX, "laps"),
+        ] {
+            match walkway_laps(&out, lane, turn, laps) {
+                Err(Error::BadParameter { name: got, .. }) => assert_eq!(got, name),
+                other => panic!("{lane} {turn} {laps}: {other:?}"),
+            }
+        }
     }
 
     /// The lap is twice as long, walks +X then −X, and ends near where it began.
