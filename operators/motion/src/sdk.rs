@@ -62,11 +62,36 @@ const NO_BODY_ZEROS: usize = 175;
 /// Parses the text of a Kinect v2 SDK skeleton file; errors are `(1-based line, reason)`.
 pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (usize, String)> {
     let mut frames = Vec::new();
+    // The line of each frame, and the layout of the first: one file holds one layout.
+    let mut lines = Vec::new();
+    let mut layout: Option<(Layout, usize)> = None;
     for (i, line) in text.lines().enumerate() {
         let line_no = i + 1;
         let cols: Vec<&str> = line.split_whitespace().collect();
         if cols.is_empty() {
             continue;
+        }
+        let this = match cols.len() {
+            76 => Some(Layout::Positions),
+            201 => Some(Layout::States),
+            n if n >= 177 => Some(Layout::Timed),
+            _ => None,
+        };
+        match (layout, this) {
+            (Some((first, at)), Some(this)) if first != this => {
+                return Err((
+                    line_no,
+                    format!(
+                        "{} columns, a {} line, but line {at} was a {} line: one file holds one \
+                         layout (two recordings joined?)",
+                        cols.len(),
+                        this.name(),
+                        first.name()
+                    ),
+                ));
+            }
+            (None, Some(this)) => layout = Some((this, line_no)),
+            _ => {}
         }
         let number = |c: &str| -> std::result::Result<f64, (usize, String)> {
             c.parse::<f64>()
@@ -75,8 +100,14 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
                 .ok_or_else(|| (line_no, format!("{c:?} is not a finite number")))
         };
         let frame_number_of = |c: &str| {
-            c.parse::<u64>()
-                .map_err(|_| (line_no, format!("frame number {c:?} is not an integer")))
+            c.parse::<u64>().map_err(|_| {
+                let what = if c.parse::<i64>().is_ok() {
+                    "is negative"
+                } else {
+                    "is not an integer"
+                };
+                (line_no, format!("frame number {c:?} {what}"))
+            })
         };
         // Timed logs: `frame time_ms` pairs, then either 25 joints or 175 zeros (no body).
         let n = cols.len();
@@ -92,6 +123,7 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
                         time_ms: Some(number(pair[1])?),
                         joints: Vec::new(),
                     });
+                    lines.push(line_no);
                 }
                 continue;
             }
@@ -147,11 +179,83 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
             time_ms,
             joints,
         });
+        lines.push(line_no);
     }
     if frames.is_empty() {
         return Err((1, "no frames".into()));
     }
+    check_order(&frames, &lines)?;
     Ok(frames)
+}
+
+/// The three line layouts of SDK text.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Layout {
+    /// 76 columns: frame, 25 × xyz.
+    Positions,
+    /// 201 columns: frame, 25 × state xyz quaternion.
+    States,
+    /// Frame and time first (202 columns, or 177 and more without a body).
+    Timed,
+}
+
+impl Layout {
+    fn name(self) -> &'static str {
+        match self {
+            Layout::Positions => "positions-only (76-column)",
+            Layout::States => "untimed (201-column)",
+            Layout::Timed => "timed",
+        }
+    }
+}
+
+/// The longest recording read, frames at 30 Hz: an hour. A frame number or time stamp further
+/// from the first is a corrupt value or a recording to split, and either way an error rather
+/// than an allocation of its size.
+const MAX_SPAN_FRAMES: u64 = 3600 * 30;
+
+/// Frames must come in recording order (a repeated frame number or time stamp is a repeat, and
+/// is counted later) and within [`MAX_SPAN_FRAMES`] of the first: a file whose numbers or
+/// times go back, or jump by hours, is two recordings joined or a corrupt one, and placing its
+/// frames would interleave or drop them without a word.
+fn check_order(frames: &[SdkFrame], lines: &[usize]) -> std::result::Result<(), (usize, String)> {
+    let (first, first_line) = (&frames[0], lines[0]);
+    for (pair, at) in frames.windows(2).zip(&lines[1..]) {
+        let [before, frame] = [&pair[0], &pair[1]];
+        if frame.frame_number < before.frame_number {
+            return Err((
+                *at,
+                format!(
+                    "frame number {} after {}: frame numbers go back (two recordings joined?)",
+                    frame.frame_number, before.frame_number
+                ),
+            ));
+        }
+        if let (Some(t0), Some(t1)) = (before.time_ms, frame.time_ms)
+            && t1 < t0
+        {
+            return Err((
+                *at,
+                format!("time stamp {t1} ms after {t0} ms: the logger's clock went back"),
+            ));
+        }
+        let frames_on = frame.frame_number - first.frame_number;
+        let secs_on = match (first.time_ms, frame.time_ms) {
+            (Some(t0), Some(t1)) => (t1 - t0) / 1000.0,
+            _ => frames_on as f64 / 30.0,
+        };
+        if frames_on > MAX_SPAN_FRAMES || secs_on > MAX_SPAN_FRAMES as f64 / 30.0 {
+            return Err((
+                *at,
+                format!(
+                    "frame {} ({secs_on:.0} s) is more than an hour after the first, frame {} on \
+                     line {first_line}: split a longer recording, or mend the corrupt number",
+                    frame.frame_number, first.frame_number
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Kinect v2 SDK skeleton frames as a world-frame [`MotionClip`] at `rate_hz` (30 for a Kinect
@@ -710,6 +814,33 @@ mod tests {
         let err = parse_sdk_skeletons(&format!("{line}\n{bad}")).unwrap_err();
         assert_eq!(err.0, 2);
         assert!(err.1.contains("abc"));
+        // Out of order, joined, an hour apart, negative: errors naming the line.
+        let numbered = |n: i64| line.replacen('7', &n.to_string(), 1);
+        let two =
+            |a: i64, b: i64| parse_sdk_skeletons(&format!("{}\n{}", numbered(a), numbered(b)));
+        assert!(two(7, 7).is_ok(), "a repeated number is a repeat");
+        let err = two(8, 7).unwrap_err();
+        assert_eq!(err.0, 2);
+        assert!(err.1.contains("go back"), "{}", err.1);
+        let err = two(7, 7 + 3600 * 30 + 1).unwrap_err();
+        assert!(err.1.contains("more than an hour"), "{}", err.1);
+        assert!(two(7, 7 + 3600 * 30).is_ok());
+        assert!(two(7, -2).unwrap_err().1.contains("is negative"));
+        let mut states = String::from("9");
+        for _ in 0..25 {
+            states.push_str(" 2 0.5 0.5 0.5 0 0 0 1");
+        }
+        let err = parse_sdk_skeletons(&format!("{line}\n{states}")).unwrap_err();
+        assert_eq!(err.0, 2);
+        assert!(err.1.contains("one file holds one layout"), "{}", err.1);
+        let timed = |frame: u32, ms: f64| format!("{frame} {ms} {}", &states[2..]);
+        assert!(parse_sdk_skeletons(&format!("{}\n{}", timed(1, 0.0), timed(2, 33.0))).is_ok());
+        let err =
+            parse_sdk_skeletons(&format!("{}\n{}", timed(1, 40.0), timed(2, 5.0))).unwrap_err();
+        assert!(err.1.contains("clock went back"), "{}", err.1);
+        let err =
+            parse_sdk_skeletons(&format!("{}\n{}", timed(1, 0.0), timed(2, 3.7e6))).unwrap_err();
+        assert!(err.1.contains("more than an hour"), "{}", err.1);
         assert!(parse_sdk_skeletons("\n\n").is_err());
     }
 }
