@@ -67,6 +67,23 @@ fn run(args: Args) -> eyre::Result<()> {
     }
 }
 
+/// The error and its causes on one line, as `{:#}` prints them, but without a cause whose text
+/// the line already ends with (an error that names its source in its own message, such as a
+/// path's "No such file or directory", would otherwise say it twice).
+fn describe(err: &eyre::Report) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if line.is_empty() {
+            line = text;
+        } else if !line.ends_with(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    line
+}
+
 /// The last panic's message and place, kept by the quiet panic hook.
 static LAST_PANIC: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
 
@@ -101,7 +118,7 @@ fn main() -> ExitCode {
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(args))) {
         Ok(Ok(())) => ExitCode::SUCCESS,
         Ok(Err(err)) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", describe(&err));
             ExitCode::from(2)
         }
         Err(_) => {
@@ -119,6 +136,16 @@ fn main() -> ExitCode {
 #[cfg(test)]
 mod tests {
     use clap::CommandFactory;
+
+    /// A cause already at the end of the line is not repeated; other causes follow it.
+    #[test]
+    fn causes_are_said_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
+        let err = eyre::Report::new(io).wrap_err("a.c3d: No such file");
+        assert_eq!(super::describe(&err), "a.c3d: No such file");
+        let err = eyre::eyre!("bad header").wrap_err("reading a.c3d");
+        assert_eq!(super::describe(&err), "reading a.c3d: bad header");
+    }
 
     /// The clap definition is internally consistent (no clashing flags or ids).
     #[test]

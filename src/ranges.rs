@@ -22,7 +22,7 @@ pub fn number(
         if value.is_finite() && (min..=max).contains(&value) {
             Ok(value)
         } else {
-            Err(format!("{value} is not in {min}..={max} {unit}"))
+            Err(format!("{} is not in {min}..={max} {unit}", text.trim()))
         }
     }
 }

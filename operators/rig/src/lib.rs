@@ -67,11 +67,35 @@ pub enum Error {
         origin: String,
     },
     /// Neither a built-in rig name nor an existing file.
-    #[error("unknown rig {spec:?}: expected `thesis`, `ring-N` (3 ≤ N ≤ 64) or a YAML rig file")]
+    #[error(
+        "unknown rig {spec:?}: {}expected `thesis`, `ring-N` (3 ≤ N ≤ 64) or a YAML rig file",
+        if looks_like_a_file(spec) { "no such file; " } else { "" }
+    )]
     Unknown {
         /// What was asked for.
         spec: String,
     },
+}
+
+/// A parser's message cut to a few lines' worth: serde quotes a whole document that is not a
+/// mapping (a file that is not a rig at all) into its message.
+fn shortened(message: &str) -> String {
+    const MAX_CHARS: usize = 240;
+    if message.chars().count() <= MAX_CHARS {
+        return message.to_owned();
+    }
+    let head: String = message.chars().take(MAX_CHARS).collect();
+    format!("{head}… (cut)")
+}
+
+/// Whether a rig spec names a file (a YAML extension or a path separator) rather than a
+/// built-in rig.
+fn looks_like_a_file(spec: &str) -> bool {
+    spec.contains(std::path::MAIN_SEPARATOR)
+        || spec.contains('/')
+        || [".yml", ".yaml"]
+            .iter()
+            .any(|ext| spec.to_ascii_lowercase().ends_with(ext))
 }
 
 /// Result alias of this crate.
@@ -213,7 +237,7 @@ impl Rig {
         })?;
         let file: RigFile = serde_yaml::from_str(text).map_err(|e| Error::Yaml {
             origin: origin.to_owned(),
-            message: e.to_string(),
+            message: shortened(&e.to_string()),
         })?;
         Rig::from_rig_file(file, origin)
     }
@@ -465,6 +489,25 @@ mod tests {
     use approx::assert_relative_eq;
 
     use super::*;
+
+    /// A missing rig file is said to be missing; a file that is not a rig is named without
+    /// being quoted whole.
+    #[test]
+    fn unknown_rigs_and_foreign_files() {
+        let e = Rig::from_spec("nonexist.yml").unwrap_err().to_string();
+        assert!(e.contains("no such file"), "{e}");
+        let e = Rig::from_spec("ring-x").unwrap_err().to_string();
+        assert!(!e.contains("no such file"), "{e}");
+        let text = "word ".repeat(1000);
+        let e = Rig::from_yaml_str(&text, "notes.txt")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("notes.txt") && e.len() < 400,
+            "{} chars: {e}",
+            e.len()
+        );
+    }
 
     /// The fingerprint tells rigs apart by poses and ids, not by name: a rig written to YAML and
     /// read back (another name, rounded look-at points) keeps it; moving one sensor 1 mm or
