@@ -237,9 +237,21 @@ fn parse_csv(path: &Path, text: &str) -> Result<MotionClip> {
         }
         let number = |cell: &str| {
             cell.parse::<f64>()
-                .map_err(|_| csv_error(path, line, format!("{cell:?} is not a number")))
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| csv_error(path, line, format!("{cell:?} is not a finite number")))
         };
-        times.push(number(cells[1])?);
+        let time = number(cells[1])?;
+        if let Some(&(before, _)) = times.last()
+            && time <= before
+        {
+            return Err(csv_error(
+                path,
+                line,
+                format!("time_s {time} after {before}: times must increase (a repeated row?)"),
+            ));
+        }
+        times.push((time, line));
         let mut frame = Vec::with_capacity(joints.len());
         for (joint, xyz) in joints.iter().zip(cells[2..].chunks(3)) {
             frame.push(match xyz.iter().filter(|c| c.is_empty()).count() {
@@ -256,15 +268,32 @@ fn parse_csv(path: &Path, text: &str) -> Result<MotionClip> {
         }
         frames.push(frame);
     }
-    let (Some(first), Some(last)) = (times.first(), times.last()) else {
+    let (Some(&(first, _)), Some(&(last, _))) = (times.first(), times.last()) else {
         return Err(csv_error(path, 2, "no data rows"));
     };
-    if times.len() < 2 || last <= first || times.windows(2).any(|w| w[1] <= w[0]) {
+    if times.len() < 2 {
         return Err(csv_error(
             path,
             2,
             "need at least two rows with increasing time_s to know the rate",
         ));
+    }
+    // Rows are evenly spaced (a gap is a row of empty cells): a row off the grid would put
+    // every later frame at the wrong time.
+    let step = (last - first) / (times.len() - 1) as f64;
+    for pair in times.windows(2) {
+        let [(t0, _), (t1, line)] = [pair[0], pair[1]];
+        if ((t1 - t0) - step).abs() > 0.01 * step + 2e-6 {
+            return Err(csv_error(
+                path,
+                line,
+                format!(
+                    "time_s {t1} is {:.6} s after the row before, the file's rows are {step:.6} s \
+                     apart on average: rows must be evenly spaced (a gap is a row of empty cells)",
+                    t1 - t0
+                ),
+            ));
+        }
     }
     let rate_hz = ((times.len() - 1) as f64 / (last - first) * 1e3).round() / 1e3;
     let name = path

@@ -183,16 +183,41 @@ fn parse_trc(path: &Path, text: &str) -> Result<MarkerSet> {
         ));
     }
     let mut frames = Vec::with_capacity(data_lines.len());
+    let mut last_time: Option<f64> = None;
     for (k, (line_no, l)) in data_lines.iter().enumerate() {
         let fields: Vec<&str> = l.split('\t').map(str::trim).collect();
         let is_last = k + 1 == data_lines.len();
         if is_last && !ends_with_newline && fields.len() < columns {
+            if num_frames.is_some_and(|n| k >= n) {
+                // Past the announced frames: not a cut-off frame but something appended.
+                return Err(trc_error(
+                    path,
+                    *line_no,
+                    format!(
+                        "a partial row of {} fields after the {k} frames the header announces",
+                        fields.len()
+                    ),
+                ));
+            }
             // The file stops in the middle of a row.
             return Err(Error::Truncated {
                 path: path.to_path_buf(),
                 expected: num_frames.unwrap_or(data_lines.len()),
                 got: k,
             });
+        }
+        if let Some(n) = num_frames
+            && k == n
+        {
+            return Err(trc_error(
+                path,
+                *line_no,
+                format!(
+                    "{} rows, more than the {n} frames the header announces (a repeated row, or \
+                     a wrong NumFrames)",
+                    data_lines.len()
+                ),
+            ));
         }
         if fields.len() > columns && fields[columns..].iter().any(|f| !f.is_empty()) {
             return Err(trc_error(
@@ -210,6 +235,18 @@ fn parse_trc(path: &Path, text: &str) -> Result<MarkerSet> {
                 *line_no,
                 "row does not start with a frame number",
             ));
+        }
+        if let Some(time) = fields.get(1).and_then(|f| f.parse::<f64>().ok()) {
+            if let Some(before) = last_time
+                && time <= before
+            {
+                return Err(trc_error(
+                    path,
+                    *line_no,
+                    format!("time {time} after {before}: times must increase (a repeated row?)"),
+                ));
+            }
+            last_time = Some(time);
         }
         let mut row = Vec::with_capacity(labels.len());
         for (m, label) in labels.iter().enumerate() {

@@ -50,6 +50,78 @@ fn truncated_trc() {
     ));
 }
 
+/// A repeated row, more rows than announced, or a partial row appended after them are errors
+/// naming the line, not a clip whose later frames all sit one frame late.
+#[test]
+fn extra_or_repeated_trc_rows_name_the_line() {
+    let Some(path) = trigait_test_data::shared_file(RAJAGOPAL) else {
+        return;
+    };
+    let text = std::fs::read_to_string(path).unwrap();
+    let rows: Vec<&str> = text.lines().collect();
+    let with = |edit: &dyn Fn(&mut Vec<String>)| {
+        let mut r: Vec<String> = rows.iter().map(|s| (*s).to_owned()).collect();
+        edit(&mut r);
+        r.join("\n")
+    };
+    let repeated = with(&|r| r.insert(100, r[99].clone())) + "\n";
+    let appended = with(&|r| r.push("239\t2.3\t1.0".to_owned()));
+    let file = TempFile::new("repeated.trc", repeated.as_bytes());
+    match read_trc(&file.0) {
+        Err(Error::Trc { line, reason, .. }) => {
+            assert_eq!(line, 101, "{reason}");
+            assert!(reason.contains("must increase"), "{reason}");
+        }
+        other => panic!("expected a Trc error, got {other:?}"),
+    }
+    let file = TempFile::new("appended.trc", appended.as_bytes());
+    match read_trc(&file.0) {
+        Err(Error::Trc { reason, .. }) => {
+            assert!(reason.contains("after the 238 frames"), "{reason}");
+        }
+        other => panic!("expected a Trc error, got {other:?}"),
+    }
+}
+
+/// A CSV row out of time order, off the rows' even spacing, or with a NaN time is an error
+/// naming its line.
+#[test]
+fn csv_times_must_be_even_and_finite() {
+    let walk = trigait_motion::walker(&trigait_motion::WalkerParams::default(), 2.0, 30.0).unwrap();
+    let good = temp_path("good.csv");
+    trigait_motion::write_csv(&good, &walk).unwrap();
+    let text = std::fs::read_to_string(&good).unwrap();
+    assert!(load_motion(&good).is_ok());
+    std::fs::remove_file(&good).ok();
+    let rows: Vec<&str> = text.lines().collect();
+    let time_of =
+        |line: usize| -> f64 { rows[line - 1].split(',').nth(1).unwrap().parse().unwrap() };
+    // Line 11 moved 40 % of the way towards line 12: still in order, off the grid.
+    let off_grid = format!("{:.6}", time_of(10) + 0.4 * (time_of(12) - time_of(10)));
+    let with_time = |line: usize, time: &str| {
+        let mut r: Vec<String> = rows.iter().map(|s| (*s).to_owned()).collect();
+        let mut cells: Vec<&str> = rows[line - 1].split(',').collect();
+        cells[1] = time;
+        r[line - 1] = cells.join(",");
+        r.join("\n") + "\n"
+    };
+    let before = rows[9].split(',').nth(1).unwrap().to_owned();
+    for (time, needle) in [
+        (before.as_str(), "must increase"),
+        (off_grid.as_str(), "evenly spaced"),
+        ("nan", "not a finite number"),
+    ] {
+        let file = TempFile::new("times.csv", with_time(11, time).as_bytes());
+        match load_motion(&file.0) {
+            Err(Error::Csv { line, reason, .. }) => {
+                assert!(reason.contains(needle), "{time}: {reason}");
+                assert_eq!(line, 11, "{time}: {reason}");
+            }
+            other => panic!("{time}: expected a Csv error, got {other:?}"),
+        }
+    }
+}
+
 /// A number that is not a number names its line.
 #[test]
 fn malformed_trc_value_names_the_line() {
