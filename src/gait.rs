@@ -273,6 +273,9 @@ pub fn load_input(
     joint_centres: bool,
     rate_hz: Option<f64>,
 ) -> eyre::Result<GaitInput> {
+    if path.is_dir() {
+        eyre::bail!("{} is a directory: give one motion file", path.display());
+    }
     let name = path
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
@@ -334,7 +337,9 @@ pub fn load_input(
             path.display()
         );
     }
-    if trigait_motion::MotionFormat::from_path(path)? == trigait_motion::MotionFormat::Csv {
+    let format = trigait_motion::MotionFormat::from_path(path)
+        .map_err(|e| eyre::eyre!("{e}; Kinect SDK skeleton text (.txt) is read too"))?;
+    if format == trigait_motion::MotionFormat::Csv {
         let clip = load_clip(path)?;
         let landmarks = trigait_gait::Landmarks::from_clip(&clip)?;
         return Ok(GaitInput {

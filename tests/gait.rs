@@ -479,6 +479,8 @@ fn an_untimed_log_gets_its_clock_checked_and_given() {
         given["notes"]
     );
 
+    fails_with(&["gait", "/tmp"], "is a directory");
+    fails_with(&["gait", "walk.xyz"], ".txt) is read too");
     for bad in ["0", "nan", "1e9"] {
         fails_with(
             &["gait", straight.to_str().unwrap(), "--rate", bad],

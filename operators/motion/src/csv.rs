@@ -235,13 +235,20 @@ fn parse_csv(path: &Path, text: &str) -> Result<MotionClip> {
                 format!("{} cells, the header has {}", cells.len(), fields.len()),
             ));
         }
+        // A NaN coordinate is a gap, which the gait analysis counts and bridges; a time must be
+        // a time.
         let number = |cell: &str| {
             cell.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| csv_error(path, line, format!("{cell:?} is not a finite number")))
+                .map_err(|_| csv_error(path, line, format!("{cell:?} is not a number")))
         };
         let time = number(cells[1])?;
+        if !time.is_finite() {
+            return Err(csv_error(
+                path,
+                line,
+                format!("time_s {:?} is not a finite number", cells[1]),
+            ));
+        }
         if let Some(&(before, _)) = times.last()
             && time <= before
         {
