@@ -10,8 +10,9 @@ use trigait_gait::filter::Filter;
 /// Arguments of `trigait export`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Motion to export: C3D/TRC markers (exported as joint centres) or trigait joint files
-    /// (C3D/TRC with joint-named markers, CSV).
+    /// Motion to export: C3D/TRC markers (exported as joint centres), trigait joint files
+    /// (C3D/TRC with joint-named markers, CSV) or Kinect SDK skeleton text (.txt, at 30 Hz or
+    /// its time stamps).
     pub input: PathBuf,
     /// Output format; by default taken from the extension of `--output`.
     #[arg(long, value_enum)]
@@ -80,7 +81,20 @@ pub fn run(args: Args) -> eyre::Result<()> {
             args.output.display()
         ),
     };
-    let clip = crate::gait::load_clip(&args.input)?;
+    let is_sdk_text = args
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
+    let clip = if is_sdk_text {
+        // Kinect SDK skeleton text, read as `trigait gait` reads it (inferred joints dropped,
+        // sides put back where the person walks away).
+        crate::gait::load_input(&args.input, false, false, None)?
+            .clip
+            .ok_or_else(|| eyre::eyre!("{}: no joints", args.input.display()))?
+    } else {
+        crate::gait::load_clip(&args.input)?
+    };
+    crate::output::create_parent(&args.output)?;
     let clip = args
         .filter
         .apply(&clip)

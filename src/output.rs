@@ -18,6 +18,25 @@ pub fn not_the_input(input: &Path, output: &Path) -> eyre::Result<()> {
     Ok(())
 }
 
+/// Creates the folder `output` goes into when it does not exist yet (as `--plots` and
+/// `legs --out` do for theirs).
+///
+/// # Errors
+/// When it cannot be created.
+pub fn create_parent(output: &Path) -> eyre::Result<()> {
+    match output.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() && !dir.exists() => std::fs::create_dir_all(dir)
+            .map_err(|e| {
+                eyre::eyre!(
+                    "creating the folder {} for {}: {e}",
+                    dir.display(),
+                    output.display()
+                )
+            }),
+        _ => Ok(()),
+    }
+}
+
 fn same_file(a: &Path, b: &Path) -> bool {
     let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
         return false;

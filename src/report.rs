@@ -77,6 +77,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
         &input,
         &analysis,
     )?;
+    crate::output::create_parent(&args.output)?;
     std::fs::write(&args.output, html)
         .wrap_err_with(|| format!("writing {}", args.output.display()))?;
     crate::stdout::print(&format!(

@@ -190,3 +190,44 @@ fn format_from_extension_and_filter() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Kinect SDK skeleton text exports as `trigait gait` reads it (85 frames of the Straight
+/// walk, its joints), into a folder made for it; the report goes into a new folder too.
+#[test]
+fn kinect_text_exports_into_a_new_folder() {
+    let Some(straight) =
+        trigait_test_data::shared_file("kinect-v2-skeleton-replay/JointsInfo_Straight.txt")
+    else {
+        return;
+    };
+    let dir = scratch("kinect-text");
+    let trc = dir.join("new").join("straight.trc");
+    let out = trigait(&[
+        "export",
+        straight.to_str().unwrap(),
+        "-o",
+        trc.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let clip = read_back(&trc);
+    assert_eq!(clip.frame_count(), 85);
+    assert!(clip.has(trigait_skeleton::Joint::AnkleLeft));
+    let html = dir.join("pages").join("straight.html");
+    let out = trigait(&[
+        "report",
+        straight.to_str().unwrap(),
+        "-o",
+        html.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(html.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -21,6 +21,30 @@ use trigait_skeleton::MotionClip;
 use crate::trc::metres_per_unit;
 use crate::{Error, MAX_MOTION_FILE_BYTES, MarkerSet, Result};
 
+/// c3dio's parse error in words: its own text is the variant's debug form (e.g.
+/// `FrameRateMismatch(0.0, 120.0)`), which does not say which value is whose.
+fn c3dio_reason(e: &c3dio::C3dParseError) -> String {
+    use c3dio::C3dParseError as E;
+    match e {
+        E::FrameRateMismatch(header, parameter) => format!(
+            "the header's frame rate ({header} Hz) disagrees with POINT:RATE ({parameter} Hz)"
+        ),
+        E::ScaleFactorMismatch(header, parameter) => {
+            format!("the header's point scale ({header}) disagrees with POINT:SCALE ({parameter})")
+        }
+        E::NumFramesMismatch(a, b) => format!("the frame counts disagree ({a} against {b})"),
+        E::ParameterNotFound(group, name) => format!("parameter {group}:{name} is missing"),
+        E::MissingParameter(name) | E::RequiredParameterNotFound(name) => {
+            format!("required parameter {name} is missing")
+        }
+        E::GroupNotFound(group) | E::MissingGroup(group) => {
+            format!("parameter group {group} is missing")
+        }
+        E::InsufficientBlocks(what) => format!("the file is shorter than it declares ({what})"),
+        other => format!("{other:?}"),
+    }
+}
+
 fn c3d_error(path: &Path, reason: impl Into<String>) -> Error {
     Error::C3d {
         path: path.to_path_buf(),
@@ -73,7 +97,7 @@ pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
         })?;
     check_layout(&mut bytes).map_err(|reason| c3d_error(path, reason))?;
     let c3d = catch_unwind(AssertUnwindSafe(|| {
-        C3d::from_bytes(&bytes).map_err(|e| format!("{e:?}"))
+        C3d::from_bytes(&bytes).map_err(|e| c3dio_reason(&e))
     }))
     .map_err(|panic| {
         let what = panic
@@ -85,6 +109,12 @@ pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
     })?
     .map_err(|reason| c3d_error(path, reason))?;
     let points = &c3d.points;
+    if points.cols() == 0 {
+        return Err(c3d_error(
+            path,
+            "no 3-D points (POINT:USED is 0): nothing to analyse",
+        ));
+    }
     let units: String = points.units.iter().collect::<String>().trim().to_string();
     let scale = metres_per_unit(&units).ok_or_else(|| Error::UnknownUnits {
         path: path.to_path_buf(),
@@ -279,7 +309,7 @@ const MAX_EVENTS: usize = 52;
 /// Checks, before c3dio sees them, that the header and parameter section of `bytes` describe
 /// a file c3dio can read within the bytes it has: signature, processor, block pointers, every
 /// parameter record inside its section, the points and frames the header declares inside the
-/// data section, and analog counts consistent with the header. An `EVENT:USED` that c3dio
+/// data section, and point and analog counts consistent with the header. An `EVENT:USED` that c3dio
 /// would index past its header is set to 0 in `bytes` (events are not read here).
 ///
 /// # Errors
@@ -360,6 +390,15 @@ fn check_layout(bytes: &mut [u8]) -> Result<(), String> {
             "the header declares {frames} frames of {points} points and {analog_per_frame} analog \
              samples ({needed} bytes), the data section holds {data_bytes} bytes"
         ));
+    }
+    for used in named("POINT", "USED") {
+        let declared = first_number(used, big_endian).unwrap_or(0.0);
+        if declared != points as f64 {
+            return Err(format!(
+                "POINT:USED says {declared} points, the header {points}: which is right is \
+                 unknown"
+            ));
+        }
     }
     for used in named("ANALOG", "USED") {
         let channels = first_number(used, big_endian).unwrap_or(0.0);

@@ -189,6 +189,8 @@ pub fn read_csv(path: impl AsRef<Path>) -> Result<MotionClip> {
 }
 
 fn parse_csv(path: &Path, text: &str) -> Result<MotionClip> {
+    // A spreadsheet's byte-order mark is not part of the first column's name.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text
         .lines()
         .enumerate()
@@ -198,6 +200,21 @@ fn parse_csv(path: &Path, text: &str) -> Result<MotionClip> {
         .next()
         .ok_or_else(|| csv_error(path, 1, "the file is empty"))?;
     let fields: Vec<&str> = header.split(',').map(str::trim).collect();
+    if let Some(k) = fields.iter().position(|f| f.is_empty()) {
+        return Err(csv_error(
+            path,
+            1,
+            format!(
+                "column {} of the header is empty{}",
+                k + 1,
+                if k + 1 == fields.len() {
+                    " (a trailing comma?)"
+                } else {
+                    ""
+                }
+            ),
+        ));
+    }
     if fields.len() < 5
         || fields[0] != "frame"
         || fields[1] != "time_s"
@@ -431,5 +448,15 @@ mod read_tests {
             Err(Error::Csv { line: 1, .. })
         ));
         assert!(matches!(parse_csv(p, ""), Err(Error::Csv { line: 1, .. })));
+        // A spreadsheet's byte-order mark is read past; a trailing comma is named.
+        assert!(parse_csv(p, &format!("\u{feff}{header}\n0,0,1,2,3\n1,0.1,1,2,3")).is_ok());
+        match parse_csv(p, &format!("{header},\n0,0,1,2,3,\n1,0.1,1,2,3,")) {
+            Err(Error::Csv {
+                line: 1, reason, ..
+            }) => {
+                assert!(reason.contains("trailing comma"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 }

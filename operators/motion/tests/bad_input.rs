@@ -177,6 +177,61 @@ fn truncated_c3d() {
     }
 }
 
+/// A header whose frame rate disagrees with `POINT:RATE` is an error that says which is which
+/// (c3dio's own text is `FrameRateMismatch(0.0, 120.0)`).
+#[test]
+fn c3d_rate_mismatch_is_said_in_words() {
+    let Some(path) = trigait_test_data::shared_file(CMU) else {
+        return;
+    };
+    let mut bytes = std::fs::read(path).unwrap();
+    // Header words 11-12 (bytes 20..24): the frame rate, a float.
+    bytes[20..24].copy_from_slice(&0.0_f32.to_le_bytes());
+    let file = TempFile::new("rate0.c3d", &bytes);
+    match read_c3d(&file.0) {
+        Err(Error::C3d { reason, .. }) => {
+            assert!(
+                reason.contains("frame rate (0 Hz) disagrees with POINT:RATE (120 Hz)"),
+                "{reason}"
+            );
+        }
+        other => panic!("expected a C3d error, got {other:?}"),
+    }
+}
+
+/// A `POINT:USED` that disagrees with the header's point count is refused, naming both.
+#[test]
+fn c3d_point_count_disagreement_is_refused() {
+    let Some(path) = trigait_test_data::shared_file(CMU) else {
+        return;
+    };
+    let mut bytes = std::fs::read(path).unwrap();
+    // A group record is [name length, −id, name …], a parameter record [name length, id, name,
+    // next offset (2 bytes), type, dimensions, data …].
+    let find = |bytes: &[u8], name: &[u8], id: Option<i8>| {
+        bytes.windows(name.len()).enumerate().position(|(i, w)| {
+            i >= 2
+                && w == name
+                && usize::from(bytes[i - 2]) == name.len()
+                && id.map_or((bytes[i - 1] as i8) < 0, |id| bytes[i - 1] as i8 == id)
+        })
+    };
+    let point = find(&bytes, b"POINT", None).unwrap();
+    let id = -(bytes[point - 1] as i8);
+    let used = find(&bytes, b"USED", Some(id)).unwrap();
+    bytes[used + 8..used + 10].copy_from_slice(&0_i16.to_le_bytes());
+    let file = TempFile::new("used0.c3d", &bytes);
+    match read_c3d(&file.0) {
+        Err(Error::C3d { reason, .. }) => {
+            assert!(
+                reason.contains("POINT:USED says 0 points, the header 41"),
+                "{reason}"
+            );
+        }
+        other => panic!("expected a C3d error, got {other:?}"),
+    }
+}
+
 /// An unknown extension is named in the error.
 #[test]
 fn unknown_extension() {
