@@ -40,16 +40,6 @@ fn parse_filter(spec: &str) -> Result<Filter, String> {
     spec.parse::<Filter>().map_err(|e| e.to_string())
 }
 
-impl Format {
-    fn name(self) -> &'static str {
-        match self {
-            Format::Trc => "trc",
-            Format::C3d => "c3d",
-            Format::Csv => "csv",
-        }
-    }
-}
-
 fn format_of(path: &Path) -> Option<Format> {
     let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
     match ext.as_str() {
@@ -66,12 +56,13 @@ pub fn run(args: Args) -> eyre::Result<()> {
     if let (Some(asked), Some(named)) = (args.format, format_of(&args.output))
         && asked != named
     {
+        let name = |f: Format| f.to_possible_value().map(|v| v.get_name().to_owned());
         eyre::bail!(
             "--format {} but {} is named as {}: the file would not be read as what it holds \
              (drop --format, or change the extension)",
-            asked.name(),
+            name(asked).unwrap_or_default(),
             args.output.display(),
-            named.name()
+            name(named).unwrap_or_default()
         );
     }
     let format = match args.format.or_else(|| format_of(&args.output)) {
@@ -81,11 +72,7 @@ pub fn run(args: Args) -> eyre::Result<()> {
             args.output.display()
         ),
     };
-    let is_sdk_text = args
-        .input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
-    let clip = if is_sdk_text {
+    let clip = if crate::gait::is_sdk_text(&args.input) {
         // Kinect SDK skeleton text, read as `trigait gait` reads it (inferred joints dropped,
         // sides put back where the person walks away).
         crate::gait::load_input(&args.input, false, false, None)?

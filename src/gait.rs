@@ -264,6 +264,12 @@ fn landmarks_from_clip_of(
     })
 }
 
+/// Whether `path` is Kinect SDK skeleton text (`.txt`), which [`load_input`] reads.
+pub fn is_sdk_text(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("txt"))
+}
+
 /// Reads `path` for gait analysis: Kinect SDK skeleton text (`.txt`), markers (C3D/TRC: heel,
 /// toe and pelvis markers for the events, joint centres for plots when the markers allow), or
 /// joint trajectories (trigait exports, CSV).
@@ -279,10 +285,7 @@ pub fn load_input(
     let name = path
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let is_txt = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
-    if is_txt {
+    if is_sdk_text(path) {
         let frames = trigait_motion::read_sdk_skeletons(path)
             .wrap_err_with(|| format!("reading Kinect skeletons from {}", path.display()))?;
         let timed = trigait_motion::is_timed(&frames);

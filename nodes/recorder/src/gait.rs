@@ -330,9 +330,7 @@ pub fn parameter_table(summary: &Summary, method: EventMethod, scope: &str) -> S
         EventMethod::Auto => "the method chosen for walking or running",
     };
     let rows = summary.rows();
-    let cell = |v: Option<f64>, digits: usize| {
-        v.map_or_else(|| "–".to_owned(), |v| format!("{v:.digits$}"))
-    };
+    let cell = trigait_gait::report::cell;
     let mut out = format!(
         "**{} strides** ({} left, {} right) and {} steps, {scope}; events by {method}. \
          Asymmetry: (left − right) / mean.\n\n\

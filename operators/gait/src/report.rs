@@ -37,16 +37,15 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
         ));
     }
     if a.timing.implausible {
-        let median = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |s| format!("{s:.2} s"));
         out.push(format!(
             "TIMING IMPLAUSIBLE at {:.0} Hz: median swing {} over {} swings, median step {} over \
              {} steps; no human leg swings in under {:.2} s or steps in under {:.2} s, so the \
              file's time base is probably wrong and every duration, cadence and speed with it \
              (for untimed Kinect text, give the true frame rate: `trigait gait --rate`)",
             a.rate_hz,
-            median(a.timing.median_swing_secs),
+            seconds(a.timing.median_swing_secs),
             a.timing.swings,
-            median(a.timing.median_step_secs),
+            seconds(a.timing.median_step_secs),
             a.timing.steps,
             crate::timing::MIN_HUMAN_SWING_SECS,
             crate::timing::MIN_HUMAN_STEP_SECS,
@@ -107,7 +106,14 @@ fn escape(text: &str) -> String {
     out
 }
 
-fn cell(v: Option<f64>, digits: usize) -> String {
+/// A duration to the hundredth of a second, or a dash.
+fn seconds(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".to_owned(), |s| format!("{s:.2} s"))
+}
+
+/// A table cell: the value to `digits` decimals, or an en dash when there is none.
+#[must_use]
+pub fn cell(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "–".to_owned(), |v| format!("{v:.digits$}"))
 }
 
@@ -172,12 +178,8 @@ pub fn html(
              the width and the stance and swing percentages do not depend on it. For Kinect text \
              without time stamps, give the true frame rate with <code>--rate</code>.</p>",
             a.rate_hz,
-            a.timing
-                .median_swing_secs
-                .map_or_else(|| "-".to_owned(), |t| format!("{t:.2} s")),
-            a.timing
-                .median_step_secs
-                .map_or_else(|| "-".to_owned(), |t| format!("{t:.2} s")),
+            seconds(a.timing.median_swing_secs),
+            seconds(a.timing.median_step_secs),
         );
     }
     let _ = write!(

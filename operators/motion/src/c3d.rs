@@ -109,12 +109,6 @@ pub fn read_c3d(path: impl AsRef<Path>) -> Result<MarkerSet> {
     })?
     .map_err(|reason| c3d_error(path, reason))?;
     let points = &c3d.points;
-    if points.cols() == 0 {
-        return Err(c3d_error(
-            path,
-            "no 3-D points (POINT:USED is 0): nothing to analyse",
-        ));
-    }
     let units: String = points.units.iter().collect::<String>().trim().to_string();
     let scale = metres_per_unit(&units).ok_or_else(|| Error::UnknownUnits {
         path: path.to_path_buf(),

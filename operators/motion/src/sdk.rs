@@ -209,9 +209,12 @@ impl Layout {
     }
 }
 
-/// The longest recording read, frames at 30 Hz: an hour. A frame number or time stamp further
-/// from the first is a corrupt value or a recording to split, and either way an error rather
-/// than an allocation of its size.
+/// The longest recording read: an hour. A frame number or time stamp further from the first is
+/// a corrupt value or a recording to split, and either way an error rather than an allocation
+/// of its size.
+const MAX_SPAN_SECS: f64 = 3600.0;
+
+/// [`MAX_SPAN_SECS`] in frame numbers, which the SDK counts at 30 Hz.
 const MAX_SPAN_FRAMES: u64 = 3600 * 30;
 
 /// Frames must come in recording order (a repeated frame number or time stamp is a repeat, and
@@ -244,7 +247,7 @@ fn check_order(frames: &[SdkFrame], lines: &[usize]) -> std::result::Result<(), 
             (Some(t0), Some(t1)) => (t1 - t0) / 1000.0,
             _ => frames_on as f64 / 30.0,
         };
-        if frames_on > MAX_SPAN_FRAMES || secs_on > MAX_SPAN_FRAMES as f64 / 30.0 {
+        if frames_on > MAX_SPAN_FRAMES || secs_on > MAX_SPAN_SECS {
             return Err((
                 *at,
                 format!(
@@ -378,7 +381,7 @@ fn place(frames: &[SdkFrame], rate_hz: f64) -> Placement {
     // A corrupt frame number must not allocate the world: cap the span at an hour of frames.
     let span = usize::try_from(last - first)
         .unwrap_or(usize::MAX)
-        .min(3600 * 30)
+        .min(MAX_SPAN_FRAMES as usize)
         + 1;
     let mut taken = vec![false; span];
     let mut repeated = 0;
@@ -553,7 +556,7 @@ fn place_timed(frames: &[SdkFrame], rate_hz: f64) -> Placement {
     let t1 = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let slot_of = |t: f64| ((t - t0) / 1000.0 * rate_hz).round();
     // A corrupt time stamp must not allocate the world: cap the span at an hour of frames.
-    let span = (slot_of(t1).max(0.0).min(3600.0 * rate_hz.max(1.0)) as usize) + 1;
+    let span = (slot_of(t1).max(0.0).min(MAX_SPAN_SECS * rate_hz.max(1.0)) as usize) + 1;
     let mut taken = vec![false; span];
     let mut repeated = 0;
     let mut previous: Option<(&Vec<JointSample>, usize)> = None;
@@ -822,9 +825,9 @@ mod tests {
         let err = two(8, 7).unwrap_err();
         assert_eq!(err.0, 2);
         assert!(err.1.contains("go back"), "{}", err.1);
-        let err = two(7, 7 + 3600 * 30 + 1).unwrap_err();
+        let err = two(7, 7 + MAX_SPAN_FRAMES as i64 + 1).unwrap_err();
         assert!(err.1.contains("more than an hour"), "{}", err.1);
-        assert!(two(7, 7 + 3600 * 30).is_ok());
+        assert!(two(7, 7 + MAX_SPAN_FRAMES as i64).is_ok());
         assert!(two(7, -2).unwrap_err().1.contains("is negative"));
         let mut states = String::from("9");
         for _ in 0..25 {
