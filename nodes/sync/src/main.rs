@@ -430,13 +430,15 @@ impl State {
             Ok(SampleOutcome::Step {
                 step_nanos,
                 exchanges,
-                ..
+                at_server_nanos,
+                agreed_server_nanos,
             }) => {
                 self.counters.ntp_replies += 1;
                 warn!(
                     %sensor,
                     step_ms = step_nanos as f64 * 1e-6,
                     exchanges,
+                    stale_ms = at_server_nanos.saturating_sub(agreed_server_nanos) as f64 * 1e-6,
                     "sensor clock stepped; frames map with the new offset from this exchange on"
                 );
             }

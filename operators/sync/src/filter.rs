@@ -202,6 +202,10 @@ pub enum SampleOutcome {
         step_nanos: i64,
         /// Server time of the newest sample that confirmed the step.
         at_server_nanos: i64,
+        /// Server time of the newest exchange that still agreed with the previous estimate:
+        /// the clock stepped after it, so frames captured between it and `at_server_nanos`
+        /// may have been mapped with the old estimate.
+        agreed_server_nanos: i64,
         /// Exchanges from the first that disagreed with the previous estimate through this
         /// one, rejected ones included (at least [`ClockFilterParams::step_confirm_samples`]):
         /// until this exchange, frames were mapped with the estimate from before the step.
@@ -281,9 +285,9 @@ pub struct ClockFilter {
     steps: u64,
     /// Exchanges pushed so far.
     exchanges: u64,
-    /// The exchange (of [`Self::exchanges`]) that first disagreed with the fit, while samples
-    /// keep disagreeing.
-    disagreeing_since: Option<u64>,
+    /// While samples keep disagreeing with the fit: the exchange (of [`Self::exchanges`]) that
+    /// first disagreed, and the server time of the newest sample that agreed before it.
+    disagreeing_since: Option<(u64, i64)>,
     /// Whether the filter has had a fit: after that a step's shorter window still maps.
     synchronised: bool,
 }
@@ -394,7 +398,13 @@ impl ClockFilter {
         residual_nanos: i64,
         allowed_nanos: i64,
     ) -> SampleOutcome {
-        let since = *self.disagreeing_since.get_or_insert(self.exchanges);
+        let agreed = self
+            .window
+            .back()
+            .map_or(m.server_mid_nanos, |w| w.server_mid_nanos);
+        let (since, agreed_server_nanos) = *self
+            .disagreeing_since
+            .get_or_insert((self.exchanges, agreed));
         if let Some((first, _)) = self.pending.first() {
             // Do the held samples agree with each other (allowing for the drift)?
             let dt = (i128::from(m.server_mid_nanos) - i128::from(first.server_mid_nanos)) as f64;
@@ -422,6 +432,7 @@ impl ClockFilter {
         SampleOutcome::Step {
             step_nanos,
             at_server_nanos: m.server_mid_nanos,
+            agreed_server_nanos,
             exchanges: self.exchanges - since + 1,
         }
     }
@@ -719,13 +730,17 @@ mod tests {
         let SampleOutcome::Step {
             step_nanos,
             exchanges,
-            ..
+            at_server_nanos,
+            agreed_server_nanos,
         } = out
         else {
             panic!("expected a step, got {out:?}")
         };
         assert!((step_nanos - 20_000_000).abs() < 1_000, "{step_nanos}");
         assert_eq!(exchanges, 3);
+        // The last agreeing exchange was the tenth (4.5 s); the third disagreeing one at 6 s.
+        assert!((agreed_server_nanos - 4_500_000_000).abs() < 1_000_000);
+        assert!((at_server_nanos - 6_000_000_000).abs() < 1_000_000);
         assert_eq!(f.steps(), 1);
         assert!((f.estimate().unwrap().offset_nanos - 25_000_000).abs() < 1_000);
     }
@@ -751,8 +766,16 @@ mod tests {
         ));
         f.push(stepped(14));
         let out = f.push(stepped(15));
+        // The agreeing sample at 5.5 s ended the lone outlier's count: the step came after it.
         assert!(
-            matches!(out, SampleOutcome::Step { exchanges: 4, .. }),
+            matches!(
+                out,
+                SampleOutcome::Step {
+                    exchanges: 4,
+                    agreed_server_nanos: 5_500_000_000..=5_501_000_000,
+                    ..
+                }
+            ),
             "{out:?}"
         );
         assert_eq!(f.steps(), 1);
