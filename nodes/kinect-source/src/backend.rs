@@ -173,6 +173,15 @@ impl Source {
         }
     }
 
+    /// Whether a replayed file has sent its last frame (a live or simulated sensor never has).
+    pub fn played_out(&self) -> bool {
+        match self {
+            Source::Sim(_) | Source::BodyDepth(_) => false,
+            Source::Replay(r) => r.played_out(),
+            Source::Recording(r) => r.played_out(),
+        }
+    }
+
     /// The frames' receiver has shown it listens (an NTP request came): a recording played
     /// as fast as possible starts then.
     pub fn receiver_ready(&mut self, now: i64) {

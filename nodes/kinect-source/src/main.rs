@@ -77,17 +77,19 @@ pub fn run(
                 break;
             };
             let first = *first_frame_nanos.get_or_insert(due);
-            // The run's planned end: this frame is the last, and says so.
-            let last = config
+            // The run's planned end, or the end of a replayed file: this frame is the last,
+            // and says so (sync then stops waiting for this sensor, as it did when recording).
+            let planned = config
                 .stop_after_nanos
                 .is_some_and(|run| due - first >= run);
+            let last = planned || source.played_out();
             let out = match source.take_depth() {
                 Some(depth) => Out::Depth(&depth_out, depth),
                 None => Out::Frame(&frame_out),
             };
             send_capture(&mut node, out, &truth_out, &stamp, last, captured)?;
             counters.frames_sent += 1;
-            if last {
+            if planned {
                 info!(
                     "stopping after {} frames ({})",
                     counters.frames_sent,

@@ -489,7 +489,7 @@ impl State {
             }
         }
         if self.recorded_time {
-            return self.on_recorded_frame(node, frame, params, now);
+            return self.on_recorded_frame(node, frame, params, last_frame, now);
         }
         let sets: Vec<AlignedSet> = self.buffer.advance_to(now).collect();
         self.send_sets(node, sets, now)?;
@@ -518,8 +518,8 @@ impl State {
     }
 
     /// `sensor` has sent its last frame: the sets no longer wait for it, and those that
-    /// waited only for it go out now (live time; a replay on recorded stamps takes its frames
-    /// in the recorded order and ends with the flush).
+    /// waited only for it go out now (a replay on recorded stamps ends the stream when it
+    /// takes in the last frame, in the recorded order).
     fn end_stream(
         &mut self,
         node: &mut DoraNode,
@@ -550,6 +550,7 @@ impl State {
         node: &mut DoraNode,
         frame: trigait_skeleton::SkeletonFrame,
         params: &MetadataParameters,
+        last_frame: bool,
         now: i64,
     ) -> eyre::Result<()> {
         let server = get_integer_param(params, ports::RECORDED_SERVER_STAMP_NANOS);
@@ -571,6 +572,7 @@ impl State {
             },
             frame,
             sent_nanos: get_integer_param(params, ports::SENT_NANOS).unwrap_or(now),
+            last_frame,
         };
         match received {
             Some(received) => self.replayed.push(&sensor, received, replayed),
@@ -601,7 +603,9 @@ impl State {
             frame,
             timing,
             sent_nanos,
+            last_frame,
         } = replayed;
+        let sensor = frame.sensor_id.clone();
         let server = timing.server_stamp_nanos;
         let uncertainty = timing.uncertainty_nanos;
         if let Some(received) = timing.received_nanos {
@@ -611,7 +615,7 @@ impl State {
         self.timings.push(timing);
         let Some(server_stamp_nanos) = server else {
             self.counters.frames_dropped += 1;
-            return Ok(());
+            return self.end_replayed_stream(node, &sensor, last_frame, sent_nanos);
         };
         let timed = trigait_sync::TimedFrame {
             frame,
@@ -628,6 +632,21 @@ impl State {
                 warn!("frame dropped: {e}");
             }
         }
+        self.end_replayed_stream(node, &sensor, last_frame, sent_nanos)
+    }
+
+    /// After a replayed source's last frame is taken in, its stream ends there, in the
+    /// recorded order, as the recording's `sync` ended it after the same frame.
+    fn end_replayed_stream(
+        &mut self,
+        node: &mut DoraNode,
+        sensor: &str,
+        last_frame: bool,
+        sent_nanos: i64,
+    ) -> eyre::Result<()> {
+        if last_frame {
+            self.end_stream(node, sensor, sent_nanos)?;
+        }
         Ok(())
     }
 }
@@ -637,6 +656,8 @@ struct Replayed {
     frame: trigait_skeleton::SkeletonFrame,
     timing: FrameTiming,
     sent_nanos: i64,
+    /// The source marked it its stream's last.
+    last_frame: bool,
 }
 
 /// The replayed frames in the order the recording's `sync` received them. Each source plays

@@ -295,6 +295,13 @@ impl ReplayedSensor {
         (self.at < self.frames.len()).then_some(self.next_nanos)
     }
 
+    /// Whether every frame has been played (never when looped): the last one sent ended the
+    /// stream.
+    #[must_use]
+    pub fn played_out(&self) -> bool {
+        self.at >= self.frames.len()
+    }
+
     /// The next recorded frame, stamped at host time `now` by `clock`.
     pub fn capture(&mut self, now: i64, clock: &mut SensorClock) -> Option<Captured> {
         let recorded = self.frames.get(self.at)?;
@@ -452,6 +459,13 @@ impl RecordedSensor {
         Some(start.saturating_add(offset))
     }
 
+    /// Whether every recorded frame has been played: the last one sent ended the stream
+    /// (faster than real time the source still lingers, [`Self::next_due`]).
+    #[must_use]
+    pub fn played_out(&self) -> bool {
+        self.at >= self.frames.len()
+    }
+
     /// The receiver of the frames is listening: faster than real time, the play starts at
     /// host time `now`.
     pub fn receiver_ready(&mut self, now: i64) {
@@ -598,8 +612,8 @@ mod tests {
 
     /// A recording's sensor plays in recorded order on the shared timeline: in real time at
     /// `start + (server − origin)`, re-stamped by the node's clock; 20× faster only once the
-    /// receiver is ready, keeping the recorded local stamps and placements; then lingers and
-    /// ends.
+    /// receiver is ready, keeping the recorded local stamps and placements; played out with
+    /// the last frame, then lingers and ends.
     #[test]
     fn recorded_sensor_keeps_the_recorded_placement() {
         let origin = 1_000_000_000_000;
@@ -649,7 +663,9 @@ mod tests {
                 received_nanos: Some(origin + 35_333_333),
             })
         );
+        assert!(!live.played_out());
         live.capture(&mut clock).unwrap();
+        assert!(live.played_out());
         assert_eq!(live.next_due(), None);
 
         let mut fast = RecordedSensor::new(&recording, "k1", origin, Pace::FAST, start);
@@ -667,6 +683,8 @@ mod tests {
             })
             .collect();
         assert_eq!(seqs, [0, 1, 2]);
+        // Played out (the third frame said it ended the stream), yet still lingering.
+        assert!(fast.played_out());
         let linger = fast.next_due().unwrap();
         assert_eq!(linger, start + 7 + 3_333_333 + FAST_LINGER_NANOS);
         assert!(fast.capture(&mut clock).is_none());
