@@ -322,11 +322,19 @@ pub(crate) fn fit_leg(
         Some((lt, ls)) => {
             let knee = at_distance_below(frame, &thigh, &hip, lt);
             // A foot on the floor places the ankle over it; a lifted one (pitched, the sole
-            // no reference) hangs at the shank length.
+            // no reference) hangs at the shank length, but not through the floor: an ankle
+            // hung below it is on a foot that is down, at its height over the floor on the
+            // shank line.
             let ankle = if on_floor {
                 ankle_free
             } else {
-                at_distance_below(frame, &shank, &knee, ls)
+                let hung = at_distance_below(frame, &shank, &knee, ls);
+                if frame.split(&hung.coords).1 < 0.0 {
+                    let h = input.ankle_above_sole_m;
+                    frame.join(&shank.at(h), h)
+                } else {
+                    hung
+                }
             };
             (knee, ankle)
         }

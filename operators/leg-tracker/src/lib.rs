@@ -16,8 +16,9 @@
 //!    identities when they cross ([`legs`]). Hip height is a share of the measured stature;
 //!    the knee is the breakpoint of a two-line fit to the limb's axis; the ankle sits above the
 //!    sole. During the first frames the tracker measures the stature and the thigh and shank
-//!    lengths; then it holds them and places the knee and ankle at those distances along the
-//!    fitted lines. Where the lower legs pass each other they may land on the wrong chains; the
+//!    lengths; then it holds them (too few measured: halves of the standing leg from the
+//!    stature) and places the knee and ankle at those distances along the fitted lines, an
+//!    ankle never below the floor. Where the lower legs pass each other they may land on the wrong chains; the
 //!    exchange that makes thigh and shank lines meet at the knees is tried below the predicted
 //!    knees and below the height where the predicted axes cross. The `Foot` joint (second
 //!    metatarsal head) is an anthropometric distance ahead of the ankle along the walking
@@ -192,7 +193,8 @@ pub struct TrackerConfig {
     /// (0.152 H, Winter 2009, Fig. 4.1) ahead of the ankle (the ankle about 20 % and the heads
     /// about 75 % of the foot from the heel), half the ankle height (0.039 H) lower.
     pub foot_ratio: f64,
-    /// Frames over which stature and segment lengths are measured before they are held.
+    /// Frames over which stature and segment lengths are measured before they are held (from
+    /// the stature when fewer than 10 thigh or shank lengths were measured).
     pub learning_frames: usize,
     /// A leg band needs this many points to count as seen.
     pub min_band_points: usize,
@@ -542,6 +544,17 @@ impl LegTracker {
             // from the front shows its narrower side); the leg's total length does not. Thigh
             // and shank are equally long in adults (Winter 2009: 0.245 H and 0.246 H).
             let half = 0.5 * (l.0 + l.1);
+            self.held = Some((s, (half, half)));
+        } else if self.held.is_none()
+            && self.frames >= self.config.learning_frames
+            && let Some(s) = stature
+        {
+            // Too few lengths measured in the learning frames: a person standing still bends
+            // no knee, and a shank is measured only over a foot on the floor (the OpenSim
+            // walk's sensors saw 3-4 in 2 s). Hold the standing leg's halves from the stature
+            // (thigh = shank, as above): unheld, a straight leg's knee would sit at whichever
+            // breakpoint fitted best, and any does.
+            let half = 0.5 * (self.config.hip_height_ratio - self.config.ankle_height_ratio) * s;
             self.held = Some((s, (half, half)));
         }
         out.lengths_held = self.held.is_some();

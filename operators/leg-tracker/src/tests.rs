@@ -529,3 +529,126 @@ fn foot_joint_from_the_forefoot_points() {
         assert!(legs::place_foot(&ff, &ankle, &points[..8], &forward, length).is_none());
     }
 }
+
+/// Per joint, the largest distance from its median position over `frames` (each a list of
+/// (joint, position)), and the frames that reported fewer than the six leg joints.
+fn spread(frames: &[Vec<(Joint, Point3<f64>)>]) -> (Vec<(Joint, f64)>, usize) {
+    let incomplete = frames
+        .iter()
+        .filter(|f| Joint::LEGS.iter().any(|j| !f.iter().any(|(k, _)| k == j)))
+        .count();
+    let mut out = Vec::new();
+    for j in Joint::LEGS {
+        let ps: Vec<Point3<f64>> = frames
+            .iter()
+            .filter_map(|f| f.iter().find(|(k, _)| *k == j).map(|(_, p)| *p))
+            .collect();
+        if ps.is_empty() {
+            continue;
+        }
+        let centre = Point3::from(nalgebra::Vector3::from_fn(|i, _| {
+            median(ps.iter().map(|p| p[i]).collect())
+        }));
+        let far = ps.iter().map(|p| (p - centre).norm()).fold(0.0, f64::max);
+        out.push((j, far));
+    }
+    (out, incomplete)
+}
+
+/// A person standing still gives still joints once the lengths are learned: the walker's pose
+/// in double support (feet furthest apart) rendered afresh each frame on k1 (new sensor noise
+/// every frame), and the real frame 004378 tracked 90 times over. Each hip, knee and ankle
+/// stays within 2 cm of its median position over the frames after the learning, and on the
+/// rendered body within 5 cm of its truth. What could be wrong: the prediction feeding the
+/// tracker's own jitter back, a knee placed by the breakpoint of a straight leg (which any
+/// breakpoint fits), the lower legs changing chains on an unchanged image, the sides flipping.
+#[test]
+#[ignore = "a still person's joints do not hold still yet: see the README's leg tracker section"]
+fn a_still_person_gives_still_joints() {
+    const FRAMES: usize = 90;
+    let learned = TrackerConfig::default().learning_frames + 5;
+    let pose = thesis_k1();
+    let clip = lap();
+    let apart = |t: f64| {
+        let (l, r) = (
+            clip.position_at(Joint::AnkleLeft, t).unwrap(),
+            clip.position_at(Joint::AnkleRight, t).unwrap(),
+        );
+        (l - r).xy().norm()
+    };
+    let stance = (0..45)
+        .map(|k| f64::from(k) / RATE_HZ)
+        .max_by(|a, b| apart(*a).total_cmp(&apart(*b)))
+        .unwrap();
+    let mut renderer = Renderer::new(
+        RenderParams {
+            seed: 11,
+            ..RenderParams::default()
+        },
+        &pose,
+        &Room::default(),
+    )
+    .unwrap();
+    let mut tracker = LegTracker::new(config_for(&pose)).unwrap();
+    let mut seen = Vec::new();
+    let mut worst_truth: f64 = 0.0;
+    for f in 0..FRAMES {
+        let r = renderer
+            .render_pose(&BodyShape::default(), |j| clip.position_at(j, stance))
+            .unwrap();
+        let out = tracker.track(&r.depth);
+        let joints: Vec<(Joint, Point3<f64>)> = out
+            .joints
+            .iter()
+            .filter(|j| Joint::LEGS.contains(&j.joint) && j.state != TrackingState::NotTracked)
+            .map(|j| (j.joint, j.position_in_kinect))
+            .collect();
+        if f >= learned {
+            for (j, p) in &joints {
+                worst_truth = worst_truth.max((p - r.joint(*j).unwrap()).norm());
+            }
+            seen.push(joints);
+        }
+    }
+    let (rendered, incomplete) = spread(&seen);
+    eprintln!(
+        "walker standing at {stance:.2} s (feet {:.2} m apart): spread {rendered:.3?}, worst error {worst_truth:.3} m, {incomplete} frames incomplete",
+        apart(stance)
+    );
+
+    let mut real = Vec::new();
+    let mut real_incomplete = 0;
+    if let Some(depth) = trigait_test_data::shared_file("kinect-v2-depth-person/004378_depth.png") {
+        let frame = trigait_depth::io::read_depth_png(&depth).unwrap();
+        let mut tracker = LegTracker::new(TrackerConfig {
+            camera: Camera {
+                mirrored: true,
+                ..Camera::default()
+            },
+            ..TrackerConfig::default()
+        })
+        .unwrap();
+        let mut seen = Vec::new();
+        for f in 0..FRAMES {
+            let out = tracker.track(&frame);
+            if f >= learned {
+                seen.push(
+                    out.joints
+                        .iter()
+                        .filter(|j| Joint::LEGS.contains(&j.joint))
+                        .map(|j| (j.joint, j.position_in_kinect))
+                        .collect::<Vec<_>>(),
+                );
+            }
+        }
+        (real, real_incomplete) = spread(&seen);
+        eprintln!(
+            "frame 004378 {FRAMES} times: spread {real:.3?}, {real_incomplete} frames incomplete"
+        );
+    }
+    assert_eq!(incomplete, 0);
+    assert!(rendered.iter().all(|(_, d)| *d <= 0.02), "{rendered:.3?}");
+    assert!(worst_truth <= 0.05, "{worst_truth:.3} m");
+    assert_eq!(real_incomplete, 0);
+    assert!(real.iter().all(|(_, d)| *d <= 0.02), "{real:.3?}");
+}
