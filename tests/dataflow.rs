@@ -84,13 +84,25 @@ fn assert_fresh(s: &Value, p99_ms: f64) {
     assert!((1..=30).contains(&poses), "{wind_down:#}");
 }
 
-/// Checks shared by every simulated graph: sets flow without drops, every sensor is
-/// synchronised to < 1 ms for ≥ 99 % of its frames, and the recording holds what the summary
-/// counted.
+/// Checks shared by every simulated graph: sets flow without drops, one every 1/30 s from the
+/// first to the last, every sensor is synchronised to < 1 ms for ≥ 99 % of its frames, and the
+/// recording holds what the summary counted.
 fn check_simulated(run: &Run, sensors: usize, ntp_below_1ms: bool) -> Value {
     let s = run.summary();
     let sets = s["sets_fused"].as_u64().unwrap();
-    assert!(sets >= 250, "only {sets} sets in 12 s at 30 Hz: {s:#}");
+    // The sets start once every sensor's clock is synchronised. At 16 sensors on 2 cores that
+    // took up to 4.1 s of the 12 (CI), so 7.5 s of sets; with 3 or 5 under 3.7 s.
+    let least = if sensors > 5 { 225 } else { 250 };
+    assert!(sets >= least, "only {sets} sets in 12 s at 30 Hz: {s:#}");
+    // From the first set on, none missing: one per 1/30 s.
+    let stamp = |key: &str| s[key].as_i64().unwrap();
+    let span_secs =
+        (stamp("last_pose_stamp_nanos") - stamp("first_pose_stamp_nanos")) as f64 * 1e-9;
+    let expected = (span_secs * 30.0).round() as u64 + 1;
+    assert!(
+        sets * 100 >= expected * 99,
+        "{sets} sets over {span_secs:.2} s at 30 Hz: {s:#}"
+    );
     run.assert_no_sets_lost();
     let ntp = s["ntp"].as_object().unwrap();
     assert_eq!(ntp.len(), sensors, "{s:#}");
