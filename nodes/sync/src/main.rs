@@ -605,7 +605,8 @@ impl State {
             sent_nanos,
             last_frame,
         } = replayed;
-        let sensor = frame.sensor_id.clone();
+        // The stream this frame ends, if it is its source's last.
+        let ended = last_frame.then(|| frame.sensor_id.clone());
         let server = timing.server_stamp_nanos;
         let uncertainty = timing.uncertainty_nanos;
         if let Some(received) = timing.received_nanos {
@@ -615,7 +616,7 @@ impl State {
         self.timings.push(timing);
         let Some(server_stamp_nanos) = server else {
             self.counters.frames_dropped += 1;
-            return self.end_replayed_stream(node, &sensor, last_frame, sent_nanos);
+            return self.end_replayed_stream(node, ended, sent_nanos);
         };
         let timed = trigait_sync::TimedFrame {
             frame,
@@ -632,7 +633,7 @@ impl State {
                 warn!("frame dropped: {e}");
             }
         }
-        self.end_replayed_stream(node, &sensor, last_frame, sent_nanos)
+        self.end_replayed_stream(node, ended, sent_nanos)
     }
 
     /// After a replayed source's last frame is taken in, its stream ends there, in the
@@ -640,14 +641,13 @@ impl State {
     fn end_replayed_stream(
         &mut self,
         node: &mut DoraNode,
-        sensor: &str,
-        last_frame: bool,
+        ended: Option<String>,
         sent_nanos: i64,
     ) -> eyre::Result<()> {
-        if last_frame {
-            self.end_stream(node, sensor, sent_nanos)?;
+        match ended {
+            Some(sensor) => self.end_stream(node, &sensor, sent_nanos),
+            None => Ok(()),
         }
-        Ok(())
     }
 }
 

@@ -62,15 +62,7 @@ fn run(
     let shape = BodyShape::default();
     for sensor in &rig.sensors {
         let pose = sensor.world_from_kinect;
-        let mut renderer = Renderer::new(
-            RenderParams {
-                seed: 7,
-                ..RenderParams::default()
-            },
-            &pose,
-            &Room::default(),
-        )
-        .unwrap();
+        let mut renderer = super::tests::seeded_renderer(&pose, 7);
         let mut alone = Renderer::new(RenderParams::default(), &pose, &Room::default()).unwrap();
         let mut tracker = LegTracker::new(super::tests::config_for(&pose)).unwrap();
         let up = pose.rotation.inverse() * Vector3::z();

@@ -22,6 +22,32 @@ pub(super) fn config_for(pose: &Isometry3<f64>) -> TrackerConfig {
     }
 }
 
+/// A renderer from `pose` into the default room, its sensor noise drawn from `seed`.
+pub(super) fn seeded_renderer(pose: &Isometry3<f64>, seed: u64) -> Renderer {
+    Renderer::new(
+        RenderParams {
+            seed,
+            ..RenderParams::default()
+        },
+        pose,
+        &Room::default(),
+    )
+    .unwrap()
+}
+
+/// The tracker as `trigait legs` runs it on a recorded Kinect v2 frame: mirrored, the floor
+/// fitted.
+fn recorded_frame_tracker() -> LegTracker {
+    LegTracker::new(TrackerConfig {
+        camera: Camera {
+            mirrored: true,
+            ..Camera::default()
+        },
+        ..TrackerConfig::default()
+    })
+    .unwrap()
+}
+
 /// The median: the middle value, or the mean of the middle two of an even count.
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -66,15 +92,7 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64) -> Vec<Score> {
     let mut scores = Vec::new();
     for sensor in &rig.sensors {
         let pose = sensor.world_from_kinect;
-        let mut renderer = Renderer::new(
-            RenderParams {
-                seed: 7,
-                ..RenderParams::default()
-            },
-            &pose,
-            &Room::default(),
-        )
-        .unwrap();
+        let mut renderer = seeded_renderer(&pose, 7);
         let mut tracker = LegTracker::new(config_for(&pose)).unwrap();
         let mut errors: [Vec<f64>; 3] = Default::default();
         // The same split by the reported state, and the signed height error of each class.
@@ -316,14 +334,7 @@ fn real_frame_against_the_sdk() {
     let truth = trigait_depth::io::read_mask_png(&mask).unwrap();
     let sdk = trigait_motion::read_sdk_skeletons(&skel).unwrap();
     assert_eq!(sdk[0].frame_number, 4378);
-    let mut tracker = LegTracker::new(TrackerConfig {
-        camera: Camera {
-            mirrored: true,
-            ..Camera::default()
-        },
-        ..TrackerConfig::default()
-    })
-    .unwrap();
+    let mut tracker = recorded_frame_tracker();
     let out = tracker.track(&frame);
     assert_eq!(out.status, Status::Tracking, "{out:?}");
     let (mut inter, mut union) = (0, 0);
@@ -580,15 +591,7 @@ fn a_still_person_gives_still_joints() {
         .map(|k| f64::from(k) / RATE_HZ)
         .max_by(|a, b| apart(*a).total_cmp(&apart(*b)))
         .unwrap();
-    let mut renderer = Renderer::new(
-        RenderParams {
-            seed: 11,
-            ..RenderParams::default()
-        },
-        &pose,
-        &Room::default(),
-    )
-    .unwrap();
+    let mut renderer = seeded_renderer(&pose, 11);
     let mut tracker = LegTracker::new(config_for(&pose)).unwrap();
     let mut seen = Vec::new();
     let mut worst_truth: f64 = 0.0;
@@ -620,14 +623,7 @@ fn a_still_person_gives_still_joints() {
     let mut real_incomplete = 0;
     if let Some(depth) = trigait_test_data::shared_file("kinect-v2-depth-person/004378_depth.png") {
         let frame = trigait_depth::io::read_depth_png(&depth).unwrap();
-        let mut tracker = LegTracker::new(TrackerConfig {
-            camera: Camera {
-                mirrored: true,
-                ..Camera::default()
-            },
-            ..TrackerConfig::default()
-        })
-        .unwrap();
+        let mut tracker = recorded_frame_tracker();
         let mut seen = Vec::new();
         for f in 0..FRAMES {
             let out = tracker.track(&frame);
