@@ -71,6 +71,11 @@ pub struct GaitEvent {
     pub frame: f64,
     /// Index of the walking segment it lies in.
     pub segment: usize,
+    /// How far the coordinate method's peak stands out of the foot-minus-pelvis signal (m):
+    /// how sure the detector is of the event. `None` for the velocity method and for a heel
+    /// strike at the start of a run, whose peak is cut short.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prominence_m: Option<f64>,
 }
 
 /// How gait events are detected.
@@ -282,6 +287,7 @@ fn push(
     foot: Foot,
     kind: EventKind,
     frame: f64,
+    prominence_m: Option<f64>,
 ) {
     events.push(GaitEvent {
         foot,
@@ -289,6 +295,7 @@ fn push(
         time_secs: tracks.time(frame),
         frame,
         segment: segment_index,
+        prominence_m,
     });
 }
 
@@ -318,6 +325,7 @@ fn coordinate_events(
                     foot,
                     kind,
                     first + offset as f64 + e.index,
+                    Some(e.prominence),
                 );
             }
         }
@@ -379,6 +387,7 @@ pub(crate) fn edge_heel_strikes(
                                 foot,
                                 EventKind::HeelStrike,
                                 frame,
+                                None,
                             );
                         }
                         break;
@@ -499,6 +508,7 @@ fn velocity_events(
                     foot,
                     EventKind::HeelStrike,
                     f,
+                    None,
                 );
                 previous = Some(f);
             }
@@ -522,7 +532,15 @@ fn velocity_events(
             }
             let f = first + crossing(&toe, threshold, start - 1, start);
             if previous.is_none_or(|p| f - p >= params.min_separation_secs * tracks.rate_hz) {
-                push(events, tracks, segment_index, foot, EventKind::ToeOff, f);
+                push(
+                    events,
+                    tracks,
+                    segment_index,
+                    foot,
+                    EventKind::ToeOff,
+                    f,
+                    None,
+                );
                 previous = Some(f);
             }
         }

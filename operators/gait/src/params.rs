@@ -364,9 +364,60 @@ fn first_between(frames: &[f64], a: f64, b: f64) -> Option<f64> {
     frames.iter().copied().find(|f| *f > a && *f < b)
 }
 
-/// The shortest ground contact of a human foot, s: elite sprinters' last 80–100 ms, walking
-/// stance 0.5–0.8 s.
-const MIN_CONTACT_SECS: f64 = 0.08;
+/// The shortest ground contact of a running foot, s: elite sprinters' last 80–100 ms.
+const MIN_RUNNING_CONTACT_SECS: f64 = 0.08;
+
+/// The shortest ground contact of a walking foot, s. Walking keeps a foot down for more than
+/// half the stride (0.5–0.8 s), and even elite race walkers, at up to 4 m/s the fastest
+/// walking there is, stay on the ground close to 0.3 s per step (Hanley 2014).
+const MIN_WALKING_CONTACT_SECS: f64 = 0.25;
+
+/// Resolves each heel strike whose own foot's next event in its segment is a toe off less than
+/// `min_contact_secs` later, and returns how many events it dropped.
+///
+/// No foot lands and leaves that quickly, so one of the two is noise: on a noisy stream a
+/// one-frame wobble of the ankle peaks like a heel strike in late stance (a segment's first
+/// frames: one 0.44 s stride among sixteen put a walker's cadence 9 % high) or dips like a toe
+/// off in early stance (a segment's last frames). The one whose peak stands out less goes;
+/// without both prominences (the velocity method), the heel strike goes, as the toe off ends a
+/// stance that began at a heel strike before.
+fn drop_short_contacts(events: &mut Vec<GaitEvent>, rate_hz: f64, min_contact_secs: f64) -> usize {
+    let mut order: Vec<usize> = (0..events.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (ea, eb) = (&events[a], &events[b]);
+        (ea.foot, ea.segment)
+            .cmp(&(eb.foot, eb.segment))
+            .then(ea.frame.total_cmp(&eb.frame))
+    });
+    let mut dropped = vec![false; events.len()];
+    // The last kept event of the same foot and segment.
+    let mut previous: Option<usize> = None;
+    for i in order {
+        let e = &events[i];
+        let short = previous
+            .map(|p| &events[p])
+            .filter(|hs| {
+                hs.foot == e.foot
+                    && hs.segment == e.segment
+                    && hs.kind == EventKind::HeelStrike
+                    && e.kind == EventKind::ToeOff
+                    && (e.frame - hs.frame) / rate_hz < min_contact_secs
+            })
+            .map(|hs| matches!((hs.prominence_m, e.prominence_m), (Some(h), Some(t)) if t < h));
+        match (short, previous) {
+            (Some(true), _) => dropped[i] = true,
+            (Some(false), Some(p)) => {
+                dropped[p] = true;
+                previous = Some(i);
+            }
+            _ => previous = Some(i),
+        }
+    }
+    let count = dropped.iter().filter(|d| **d).count();
+    let mut flags = dropped.into_iter();
+    events.retain(|_| !flags.next().unwrap_or(false));
+    count
+}
 
 #[allow(clippy::too_many_arguments)]
 fn stride(
@@ -404,12 +455,6 @@ fn stride(
     };
     // Phases need: HS(a) < TO(other) < HS(other) < TO(own) < HS(b).
     let own_to = first_between(own_off, a, b);
-    // A foot leaves the ground no sooner than MIN_CONTACT_SECS after it lands: a toe off that
-    // soon after means `a` was no landing (a late-stance peak at a segment's first frames of a
-    // noisy stream, whose stride of 0.44 s at 3 m/s made the cadence 9 % high).
-    if own_to.is_some_and(|to| (to - a) / tracks.rate_hz < MIN_CONTACT_SECS) {
-        return None;
-    }
     let stance = own_to.map(|t| (t - a) / (b - a) * 100.0);
     let double_support = match (first_between(other_off, a, b), other_hs, own_to) {
         (Some(oto), Some(ohs), Some(to)) if oto < ohs && ohs < to => {
@@ -499,6 +544,11 @@ pub struct GaitAnalysis {
     pub floor: Option<crate::floor::FloorLevel>,
     /// Events the detectors proposed that were dropped because the foot was airborne.
     pub rejected_events: usize,
+    /// Events dropped because a heel strike and its own toe off came sooner after each other
+    /// than a foot leaves the floor (0.25 s walking, 80 ms running): the less prominent of the
+    /// two.
+    #[serde(default)]
+    pub short_contacts: usize,
     /// Single steps, by start time.
     pub steps: Vec<Step>,
     /// Straight walking segments.
@@ -646,6 +696,12 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
             refine_toe_offs(&tracks, &mut events);
         }
     }
+    let min_contact_secs = if running {
+        MIN_RUNNING_CONTACT_SECS
+    } else {
+        MIN_WALKING_CONTACT_SECS
+    };
+    let short_contacts = drop_short_contacts(&mut events, rate, min_contact_secs);
     let strides = strides_in_tracks(&tracks, &segmentation, &events);
     let steps = steps_in_tracks(&tracks, &segmentation, &events);
     if strides.len() < params.min_strides || (strides.is_empty() && steps.is_empty()) {
@@ -680,6 +736,7 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         quality,
         floor,
         rejected_events,
+        short_contacts,
         segments: segmentation.segments,
         excluded: segmentation.excluded,
         events,
@@ -1049,5 +1106,90 @@ pub fn compare(reference: &Summary, estimate: &Summary) -> Comparison {
         stride_time_secs: diff(&reference.stride_time_secs, &estimate.stride_time_secs),
         stance_pct: diff(&reference.stance_pct, &estimate.stance_pct),
         double_support_pct: diff(&reference.double_support_pct, &estimate.double_support_pct),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn event(foot: Foot, kind: EventKind, frame: f64, segment: usize) -> GaitEvent {
+        GaitEvent {
+            foot,
+            kind,
+            time_secs: frame / 30.0,
+            frame,
+            segment,
+            prominence_m: None,
+        }
+    }
+
+    /// At the running limit (80 ms), heel strikes 2 and 1.5 frames (67 and 50 ms) before their
+    /// own toe off go; those 3 frames (100 ms) before stay, with a toe off of the other foot
+    /// between or without, as does one whose own toe off is in the next segment. At the
+    /// walking limit (0.25 s) the 100 ms contacts go too.
+    #[test]
+    fn short_contacts_lose_their_heel_strike() {
+        use EventKind::{HeelStrike as Hs, ToeOff as To};
+        use Foot::{Left, Right};
+        let mut events = vec![
+            event(Right, Hs, 4.0, 0),
+            event(Right, To, 6.0, 0),
+            event(Left, Hs, 10.0, 0),
+            event(Right, To, 11.0, 0),
+            event(Left, To, 13.0, 0),
+            event(Right, Hs, 20.0, 0),
+            event(Right, To, 23.0, 0),
+            event(Left, Hs, 29.0, 0),
+            event(Left, To, 30.0, 1),
+            event(Left, Hs, 40.0, 1),
+            event(Left, To, 41.5, 1),
+        ];
+        let walking = events.clone();
+        let kept: Vec<GaitEvent> = events
+            .iter()
+            .copied()
+            .filter(|e| e.frame != 4.0 && e.frame != 40.0)
+            .collect();
+        assert_eq!(
+            drop_short_contacts(&mut events, 30.0, MIN_RUNNING_CONTACT_SECS),
+            2
+        );
+        assert_eq!(events, kept);
+        let mut events = walking;
+        let kept: Vec<GaitEvent> = kept
+            .into_iter()
+            .filter(|e| e.frame != 10.0 && e.frame != 20.0)
+            .collect();
+        assert_eq!(
+            drop_short_contacts(&mut events, 30.0, MIN_WALKING_CONTACT_SECS),
+            4
+        );
+        assert_eq!(events, kept);
+    }
+
+    /// Of a heel strike and a toe off too close together, the less prominent goes: a dip right
+    /// after a clear heel strike is dropped, a faint peak right before a clear toe off too.
+    #[test]
+    fn the_less_prominent_of_a_short_contact_goes() {
+        use EventKind::{HeelStrike as Hs, ToeOff as To};
+        let with = |kind, frame, prominence| GaitEvent {
+            prominence_m: Some(prominence),
+            ..event(Foot::Right, kind, frame, 0)
+        };
+        let mut events = vec![
+            with(Hs, 10.0, 0.30),
+            with(To, 13.0, 0.05),
+            with(To, 31.0, 0.40),
+            with(Hs, 44.0, 0.04),
+            with(To, 47.0, 0.30),
+            with(Hs, 65.0, 0.35),
+        ];
+        let kept = [events[0], events[2], events[4], events[5]].to_vec();
+        assert_eq!(
+            drop_short_contacts(&mut events, 30.0, MIN_WALKING_CONTACT_SECS),
+            2
+        );
+        assert_eq!(events, kept);
     }
 }

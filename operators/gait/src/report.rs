@@ -36,6 +36,14 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
             a.rejected_events
         ));
     }
+    if a.short_contacts > 0 {
+        let limit = if a.running { "80 ms" } else { "0.25 s" };
+        out.push(format!(
+            "{} proposed events dropped: a heel strike and its own toe off within {limit} (the \
+             less prominent of the two went)",
+            a.short_contacts
+        ));
+    }
     if a.timing.implausible {
         out.push(format!(
             "TIMING IMPLAUSIBLE at {:.0} Hz: median swing {} over {} swings, median step {} over \

@@ -98,6 +98,7 @@ mod tests {
             time_secs: t,
             frame: t * 100.0,
             segment: 0,
+            prominence_m: None,
         }
     }
 
