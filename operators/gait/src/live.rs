@@ -102,9 +102,10 @@ pub struct LiveReport {
     pub rate_hz: Option<f64>,
     /// Stream time analysed (s).
     pub analysed_secs: f64,
-    /// Heel strikes per foot found by the final analysis.
+    /// Heel strikes per foot the detector found in its final pass over the window, before the
+    /// analysis drops airborne events and short contacts (`parameters` rest on what it keeps).
     pub heel_strikes: FootCounts,
-    /// Toe offs per foot found by the final analysis.
+    /// Toe offs per foot found the same way.
     pub toe_offs: FootCounts,
     /// Events reported while streaming and at the end (what was logged), both kinds.
     pub events_reported: FootCounts,
