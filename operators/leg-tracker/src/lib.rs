@@ -387,7 +387,9 @@ pub struct LegTracker {
     last_centroid: Option<Point3<f64>>,
     /// The walking direction (horizontal, camera space) while the person walks.
     forward: Option<Vector3<f64>>,
-    pelvis_history: Vec<Point3<f64>>,
+    /// Each chain's hip over the last [`PELVIS_HISTORY`] frames, and whether its thigh was seen
+    /// (a hidden leg's hip is carried or guessed, and its motion says nothing of the walk).
+    pelvis_history: Vec<[(Point3<f64>, bool); 2]>,
     frames: usize,
     statures: Vec<f64>,
     thighs: Vec<f64>,
@@ -790,8 +792,9 @@ impl LegTracker {
             self.legs = None;
             return;
         };
-        let pelvis = nalgebra::center(&tracks[0].pose.hip, &tracks[1].pose.hip);
-        self.pelvis_history.push(pelvis);
+        let seen = |k: usize| fits[k].is_some_and(|f| f.thigh_seen >= self.config.tracked_share);
+        self.pelvis_history
+            .push([(tracks[0].pose.hip, seen(0)), (tracks[1].pose.hip, seen(1))]);
         if self.pelvis_history.len() > PELVIS_HISTORY {
             self.pelvis_history.remove(0);
         }
@@ -904,22 +907,30 @@ impl LegTracker {
 
     /// Which chain is the left leg: left = up × forward, forward from the hips' motion over
     /// the last frames or, standing still, from the feet (they point forward). Re-decided
-    /// whenever the person clearly walks, so a turn on the spot does not swap the sides.
+    /// whenever the person clearly walks, so a turn on the spot does not swap the sides. Both
+    /// the motion and the sides are read off hips whose thighs were seen: at start-up with one
+    /// leg hidden, its guessed hip lay 0.35 m off and flipped the sides for 10 frames.
     fn decide_sides(
         &mut self,
         ff: &FloorFrame,
         tracks: &[LegTrack; 2],
         fits: &[Option<LegFit>; 2],
     ) {
-        let by_motion = self.pelvis_history.len() >= PELVIS_HISTORY
-            && self
-                .pelvis_history
-                .first()
-                .zip(self.pelvis_history.last())
-                .is_some_and(|(a, b)| {
-                    let v = b - a;
-                    (v - ff.up * ff.up.dot(&v)).norm() > MIN_WALK_M
-                });
+        // The pelvis's travel over the window, from the hips seen at both of its ends (the
+        // pelvis is rigid, so either hip's travel is the walk's).
+        let travel = match (self.pelvis_history.first(), self.pelvis_history.last()) {
+            (Some(a), Some(b)) if self.pelvis_history.len() >= PELVIS_HISTORY => {
+                let steps: Vec<Vector3<f64>> = a
+                    .iter()
+                    .zip(b)
+                    .filter(|(a, b)| a.1 && b.1)
+                    .map(|(a, b)| b.0 - a.0)
+                    .collect();
+                (!steps.is_empty()).then(|| steps.iter().sum::<Vector3<f64>>() / steps.len() as f64)
+            }
+            _ => None,
+        };
+        let by_motion = travel.is_some_and(|v| (v - ff.up * ff.up.dot(&v)).norm() > MIN_WALK_M);
         // The feet decide only for someone standing (the motion window full but still) or on
         // the very first frame (a single recorded image); a person found again waits for the
         // window, as the feet of someone close to the sensor are often out of view.
@@ -930,11 +941,10 @@ impl LegTracker {
             return;
         }
         let forward = if by_motion {
-            let (Some(a), Some(b)) = (self.pelvis_history.first(), self.pelvis_history.last())
-            else {
+            let Some(v) = travel else {
                 return;
             };
-            b - a
+            v
         } else {
             let mut f = Vector3::zeros();
             for (t, fit) in tracks.iter().zip(fits) {
@@ -950,6 +960,11 @@ impl LegTracker {
         }
         if by_motion {
             self.forward = Some(forward.normalize());
+        }
+        // Which hip lies on which side is read only off two hips seen now: a hidden leg's hip
+        // is carried along or guessed, and may lie anywhere.
+        if !self.pelvis_history.last().is_some_and(|[a, b]| a.1 && b.1) {
+            return;
         }
         let lateral = ff.up.cross(&forward.normalize());
         let d = lateral.dot(&(tracks[0].pose.hip - tracks[1].pose.hip));

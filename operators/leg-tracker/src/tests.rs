@@ -257,11 +257,11 @@ const FOOT_HEIGHT_BIAS_M: f64 = 0.015;
 /// Real walks played through the renderer: CMU 07_01 and the OpenSim Rajagopal walk (joint
 /// centres from their markers), each there and back on the walkway of the thesis rig, 10 s.
 /// The goal is the walker's: ≤ 4 cm median per joint class on every sensor, no swap. It is
-/// not met. Measured (median hip / knee / ankle; swapped frames of 300): CMU 07_01 k1 3.8 / 3.4
-/// / 4.5 cm, 0; k2 3.8 / 3.0 / 3.8 cm, 0; k3 3.9 / 2.7 / 2.9 cm, 0. Rajagopal k1 4.6 / 5.1 / 4.9
-/// cm, 4; k2 4.5 / 4.3 / 4.2 cm, 0; k3 4.4 / 4.2 / 4.1 cm, 0; feet (median) 5.6–6.2 cm (CMU),
-/// 8.4–8.5 cm (Rajagopal). The renderer and the tracker are deterministic, so the test pins
-/// that state (≤ 5.5 cm, ≤ 4 swapped frames per sensor, feet ≤ 9 cm) and prints where the
+/// not met for every joint. Measured (median hip / knee / ankle; swapped frames of 300): CMU
+/// 07_01 k1 3.8 / 3.4 / 4.4 cm, 0; k2 3.8 / 3.0 / 3.7 cm, 0; k3 3.9 / 2.7 / 2.9 cm, 0. Rajagopal
+/// k1 4.4 / 3.6 / 3.2 cm, 0; k2 4.4 / 3.7 / 3.1 cm, 0; k3 4.3 / 3.2 / 2.9 cm, 0; feet (median)
+/// 5.6–6.2 cm (CMU), 8.1–8.4 cm (Rajagopal). The renderer and the tracker are deterministic, so
+/// the test pins that state (≤ 5.5 cm, no swapped frame, feet ≤ 9 cm) and prints where the
 /// goal is missed.
 #[test]
 fn mocap_walks_through_the_renderer() {
@@ -291,11 +291,8 @@ fn mocap_walks_through_the_renderer() {
                     s.sensor, s.foot.0
                 ));
             }
-            let line = format!("{file} {}: {} swapped frames", s.sensor, s.swaps);
-            if s.swaps > 4 {
-                failures.push(line);
-            } else if s.swaps > 0 {
-                missed.push(line);
+            if s.swaps > 0 {
+                failures.push(format!("{file} {}: {} swapped frames", s.sensor, s.swaps));
             }
             if s.reported < s.asked * 8 / 10 {
                 failures.push(format!(
@@ -305,7 +302,7 @@ fn mocap_walks_through_the_renderer() {
             }
         }
     }
-    eprintln!("goal (4 cm, no swap) missed: {missed:#?}");
+    eprintln!("goal (4 cm) missed: {missed:#?}");
     assert!(failures.is_empty(), "{failures:?}");
 }
 
