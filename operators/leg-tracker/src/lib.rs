@@ -931,10 +931,11 @@ impl LegTracker {
             _ => None,
         };
         let by_motion = travel.is_some_and(|v| (v - ff.up * ff.up.dot(&v)).norm() > MIN_WALK_M);
-        // The feet decide only for someone standing (the motion window full but still) or on
+        // The feet decide only for someone standing (seen still over the whole window) or on
         // the very first frame (a single recorded image); a person found again waits for the
-        // window, as the feet of someone close to the sensor are often out of view.
-        let standing = self.pelvis_history.len() >= PELVIS_HISTORY;
+        // window, as the feet of someone close to the sensor are often out of view, and a
+        // window whose hips were not seen tells nothing.
+        let standing = travel.is_some() && !by_motion;
         if self.left.is_some() && !by_motion
             || self.left.is_none() && !by_motion && !standing && self.frames > 1
         {
