@@ -212,7 +212,11 @@ fn percentiles() {
     assert_eq!((p.count, p.p50, p.p99, p.max), (1, 3.0, 3.0, 3.0));
     let v: Vec<i64> = (1..=100).map(|i| i * 1_000_000).collect();
     let p = Percentiles::of_nanos(&v);
-    assert_eq!((p.p50, p.p99, p.max), (50.0, 99.0, 100.0), "nearest rank");
+    assert_eq!(
+        (p.p50, p.p95, p.p99, p.max),
+        (50.0, 95.0, 99.0, 100.0),
+        "nearest rank"
+    );
 }
 
 /// The ring keeps the newest `capacity` positions per joint; the text file has one line per

@@ -129,14 +129,16 @@ impl PositionErrors {
     }
 }
 
-/// p50/p99/max of a sample by the [`percentile`] rule, in milliseconds (serialised as is into
-/// a run's `summary.json`).
+/// p50/p95/p99/max of a sample by the [`percentile`] rule, in milliseconds (serialised as is
+/// into a run's `summary.json`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct Percentiles {
     /// Samples.
     pub count: usize,
     /// Median.
     pub p50: f64,
+    /// 95th percentile: the tail that a few outliers (1 % of the sample) do not move.
+    pub p95: f64,
     /// 99th percentile.
     pub p99: f64,
     /// Largest.
@@ -153,6 +155,7 @@ impl Percentiles {
         Self {
             count: v.len(),
             p50: at(0.5),
+            p95: at(0.95),
             p99: at(0.99),
             max: at(1.0),
         }
