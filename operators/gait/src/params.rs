@@ -394,23 +394,31 @@ fn drop_short_contacts(events: &mut Vec<GaitEvent>, rate_hz: f64, min_contact_se
     let mut previous: Option<usize> = None;
     for i in order {
         let e = &events[i];
+        // The heel strike this toe off follows too soon, and whether the toe off is the
+        // less prominent of the two.
         let short = previous
-            .map(|p| &events[p])
-            .filter(|hs| {
+            .filter(|&p| {
+                let hs = &events[p];
                 hs.foot == e.foot
                     && hs.segment == e.segment
                     && hs.kind == EventKind::HeelStrike
                     && e.kind == EventKind::ToeOff
                     && (e.frame - hs.frame) / rate_hz < min_contact_secs
             })
-            .map(|hs| matches!((hs.prominence_m, e.prominence_m), (Some(h), Some(t)) if t < h));
-        match (short, previous) {
-            (Some(true), _) => dropped[i] = true,
-            (Some(false), Some(p)) => {
+            .map(|p| {
+                let fainter = matches!(
+                    (events[p].prominence_m, e.prominence_m),
+                    (Some(h), Some(t)) if t < h
+                );
+                (p, fainter)
+            });
+        match short {
+            Some((_, true)) => dropped[i] = true,
+            Some((p, false)) => {
                 dropped[p] = true;
                 previous = Some(i);
             }
-            _ => previous = Some(i),
+            None => previous = Some(i),
         }
     }
     let count = dropped.iter().filter(|d| **d).count();
@@ -1132,7 +1140,7 @@ mod tests {
     fn short_contacts_lose_their_heel_strike() {
         use EventKind::{HeelStrike as Hs, ToeOff as To};
         use Foot::{Left, Right};
-        let mut events = vec![
+        let events = vec![
             event(Right, Hs, 4.0, 0),
             event(Right, To, 6.0, 0),
             event(Left, Hs, 10.0, 0),
@@ -1145,27 +1153,19 @@ mod tests {
             event(Left, Hs, 40.0, 1),
             event(Left, To, 41.5, 1),
         ];
-        let walking = events.clone();
-        let kept: Vec<GaitEvent> = events
-            .iter()
-            .copied()
-            .filter(|e| e.frame != 4.0 && e.frame != 40.0)
-            .collect();
-        assert_eq!(
-            drop_short_contacts(&mut events, 30.0, MIN_RUNNING_CONTACT_SECS),
-            2
-        );
-        assert_eq!(events, kept);
-        let mut events = walking;
-        let kept: Vec<GaitEvent> = kept
-            .into_iter()
-            .filter(|e| e.frame != 10.0 && e.frame != 20.0)
-            .collect();
-        assert_eq!(
-            drop_short_contacts(&mut events, 30.0, MIN_WALKING_CONTACT_SECS),
-            4
-        );
-        assert_eq!(events, kept);
+        // Each limit drops the heel strikes at `gone` and nothing else.
+        let drops = |limit: f64, gone: &[f64]| {
+            let mut left = events.clone();
+            let kept: Vec<GaitEvent> = events
+                .iter()
+                .copied()
+                .filter(|e| !gone.contains(&e.frame))
+                .collect();
+            assert_eq!(drop_short_contacts(&mut left, 30.0, limit), gone.len());
+            assert_eq!(left, kept);
+        };
+        drops(MIN_RUNNING_CONTACT_SECS, &[4.0, 40.0]);
+        drops(MIN_WALKING_CONTACT_SECS, &[4.0, 10.0, 20.0, 40.0]);
     }
 
     /// Of a heel strike and a toe off too close together, the less prominent goes: a dip right
