@@ -3,9 +3,10 @@
 //!
 //! The analysis is `trigait-gait`'s [`LiveGait`] with the `trigait gait` defaults (Zeni et al.
 //! 2008 coordinate method): every second of stream time the retained fused trajectories are
-//! analysed again and events that have settled (1.5 s old) are logged; when one is a heel
-//! strike, the strides so far are analysed in full and the table and the flexion curves are
-//! redrawn. At the end the rest is logged and the parameters computed over the whole recording.
+//! analysed again in full, and the events that analysis keeps that have settled (1.5 s old) are
+//! logged, so every marker is an event the parameters use; when one is a heel strike, the table
+//! and the flexion curves are redrawn from that same analysis. At the end the rest is logged and
+//! the parameters computed over the whole recording.
 //!
 //! It runs on a thread of its own, fed the poses through a channel: a full analysis takes tens
 //! of milliseconds (35 ms for a 24 s window on the 2-core machine, 140 ms for 10 min), which on

@@ -39,8 +39,9 @@
 //! 7. [`timing`] checks that the swings and steps keep a human rhythm at the clip's rate, which
 //!    flags a wrong time base (untimed Kinect text read at 30 Hz).
 //! 8. [`stream`] holds the *causal* filters a live dataflow can run (One-Euro, a causal
-//!    Butterworth), one state per joint, and [`LiveGait`] runs the event detection over a growing
-//!    stream of poses (the recorder node's gait events and `summary.json` section).
+//!    Butterworth), one state per joint, and [`LiveGait`] runs the analysis over a growing stream
+//!    of poses and reports the events it keeps (the recorder node's gait events and
+//!    `summary.json` section).
 //!
 //! # Frames and units
 //! World frame of DESIGN.md: metres, seconds, right-handed, Z up, floor at z = 0. The walking

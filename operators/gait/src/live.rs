@@ -9,23 +9,26 @@
 //! pose is a gap, which the segmentation reports or bridges as it does for a marker file.
 //!
 //! **Settled events.** Every [`LiveGaitParams::analyse_every_secs`] the whole retained window is
-//! analysed again; an event is reported once it lies [`LiveGaitParams::settle_secs`] before the
-//! newest pose, because the segmentation looks half a velocity window ahead and a turning point
-//! at the very end of the data is not yet a peak. Later analyses find the same event again,
+//! analysed again, as [`crate::analyse`] does it (cleaning, the airborne and short-contact
+//! checks), and the events that analysis keeps are the ones reported: what the viewer marks is
+//! what the parameters rest on. An event is reported once it lies
+//! [`LiveGaitParams::settle_secs`] before the newest pose, because the segmentation looks half a
+//! velocity window ahead and a turning point at the very end of the data is not yet a peak. Later analyses find the same event again,
 //! within a frame; one of the same foot and kind closer than half the minimum event separation
 //! to one already reported is the same event and is not reported twice. At the end
 //! ([`LiveGait::finish`]) the remaining events are reported and the parameters computed.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 use trigait_skeleton::{Joint, MotionClip};
 
-use crate::segment::ExclusionReason;
+use crate::params::{analyse_detection, detect};
+use crate::segment::{ExclusionReason, Segmentation};
 use crate::{
-    EventKind, EventMethod, Foot, GaitAnalysis, GaitEvent, GaitParams, Result, Summary, analyse,
-    detect_events, segment_walk,
+    EventKind, EventMethod, Foot, GaitAnalysis, GaitEvent, GaitParams, Landmarks, Result, Summary,
 };
 
 /// Tuning of [`LiveGait`].
@@ -102,10 +105,10 @@ pub struct LiveReport {
     pub rate_hz: Option<f64>,
     /// Stream time analysed (s).
     pub analysed_secs: f64,
-    /// Heel strikes per foot the detector found in its final pass over the window, before the
-    /// analysis drops airborne events and short contacts (`parameters` rest on what it keeps).
+    /// Heel strikes per foot the final analysis of the window kept (after cleaning and the
+    /// airborne and short-contact checks): the events `parameters` rest on.
     pub heel_strikes: FootCounts,
-    /// Toe offs per foot found the same way.
+    /// Toe offs per foot kept the same way.
     pub toe_offs: FootCounts,
     /// Events reported while streaming and at the end (what was logged), both kinds.
     pub events_reported: FootCounts,
@@ -169,12 +172,23 @@ pub struct LiveGait {
     last_reported: BTreeMap<(Foot, EventKind), i64>,
     reported: Vec<TimedEvent>,
     non_finite: u64,
+    /// The analysis of the poses as they are now; dropped when a pose comes.
+    latest: Option<Latest>,
 }
 
 /// A clip rebuilt from the stamps and where its frame 0 lies.
 struct Grid {
     clip: MotionClip,
     first_nanos: i64,
+}
+
+/// One analysis of the retained poses: the events it kept and its walking segments (`None`
+/// when the poses lack the joints an analysis needs), and the analysis itself.
+#[derive(Debug, Clone)]
+struct Latest {
+    analysis: Arc<LiveAnalysis>,
+    events: Vec<GaitEvent>,
+    segmentation: Option<Segmentation>,
 }
 
 impl LiveGait {
@@ -188,6 +202,7 @@ impl LiveGait {
             last_reported: BTreeMap::new(),
             reported: Vec::new(),
             non_finite: 0,
+            latest: None,
         }
     }
 
@@ -213,6 +228,7 @@ impl LiveGait {
             }
         }
         self.samples.insert(stamp_nanos, row);
+        self.latest = None;
         if let Some((&newest, _)) = self.samples.last_key_value() {
             let horizon = newest.saturating_sub((self.params.window_secs * 1e9) as i64);
             while self
@@ -239,37 +255,57 @@ impl LiveGait {
             return Vec::new();
         }
         self.last_analysis_nanos = Some(newest);
-        let Some(grid) = self.grid() else {
+        let Some(latest) = self.refresh().cloned() else {
             return Vec::new();
         };
-        let events = segment_walk(&grid.clip, &self.params.gait.segments)
-            .and_then(|s| detect_events(&grid.clip, &s, &self.params.gait.events))
-            .unwrap_or_default();
-        let limit = newest - (self.params.settle_secs * 1e9) as i64;
-        self.take_new(&grid, &events, Some(limit))
+        let a = &latest.analysis;
+        self.take_new(
+            &a.clip,
+            a.first_nanos,
+            &latest.events,
+            Some(a.settled_until_nanos),
+        )
     }
 
     /// The full analysis (strides, parameters) of everything retained, for a running display;
-    /// `None` with fewer than [`MIN_POSES`] poses. It costs one offline analysis of the window,
-    /// so call it when [`Self::poll`] reported a heel strike, not on every pose.
-    #[must_use]
-    pub fn analysis(&self) -> Option<LiveAnalysis> {
-        let newest = *self.samples.last_key_value()?.0;
-        let grid = self.grid()?;
-        let analysis = analyse(&grid.clip, &self.params.gait);
-        Some(LiveAnalysis {
-            settled_until_nanos: newest - (self.params.settle_secs * 1e9) as i64,
-            first_nanos: grid.first_nanos,
-            clip: grid.clip,
-            analysis,
-        })
+    /// `None` with fewer than [`MIN_POSES`] poses. Right after [`Self::poll`] ran one, it is that
+    /// analysis; otherwise it costs an offline analysis of the window, so call it when a poll
+    /// reported a heel strike, not on every pose.
+    pub fn analysis(&mut self) -> Option<Arc<LiveAnalysis>> {
+        self.refresh().map(|l| Arc::clone(&l.analysis))
+    }
+
+    /// The analysis of the poses as they are now, run if a pose came since the last one.
+    fn refresh(&mut self) -> Option<&Latest> {
+        if self.latest.is_none() {
+            let newest = *self.samples.last_key_value()?.0;
+            let grid = self.grid()?;
+            let gait = &self.params.gait;
+            let detection = Landmarks::from_clip(&grid.clip).and_then(|l| detect(&l, gait));
+            let (events, segmentation) = match &detection {
+                Ok(d) => (d.events.clone(), Some(d.segmentation.clone())),
+                Err(_) => (Vec::new(), None),
+            };
+            let analysis = detection.and_then(|d| analyse_detection(d, gait));
+            self.latest = Some(Latest {
+                analysis: Arc::new(LiveAnalysis {
+                    settled_until_nanos: newest - (self.params.settle_secs * 1e9) as i64,
+                    first_nanos: grid.first_nanos,
+                    clip: grid.clip,
+                    analysis,
+                }),
+                events,
+                segmentation,
+            });
+        }
+        self.latest.as_ref()
     }
 
     /// Analyses everything retained: reports the events not yet reported and the parameters
     /// (or why there are none).
     pub fn finish(&mut self) -> (Vec<TimedEvent>, LiveReport) {
         let method = self.params.gait.events.method;
-        let Some(grid) = self.grid() else {
+        let Some(latest) = self.refresh().cloned() else {
             let report = LiveReport {
                 method,
                 rate_hz: None,
@@ -296,34 +332,25 @@ impl LiveGait {
             };
             return (Vec::new(), report);
         };
-        let rate = grid.clip.rate_hz();
-        let segmentation = segment_walk(&grid.clip, &self.params.gait.segments);
-        let events = segmentation
-            .as_ref()
-            .ok()
-            .and_then(|s| detect_events(&grid.clip, s, &self.params.gait.events).ok())
-            .unwrap_or_default();
-        let analysis = analyse(&grid.clip, &self.params.gait);
-        let new = self.take_new(&grid, &events, None);
-        let secs = |r| {
-            segmentation
-                .as_ref()
-                .map_or(0.0, |s| s.excluded_secs(r, rate))
-        };
+        let live = &latest.analysis;
+        let rate = live.clip.rate_hz();
+        let (events, segmentation) = (&latest.events, latest.segmentation.as_ref());
+        let new = self.take_new(&live.clip, live.first_nanos, events, None);
+        let secs = |r| segmentation.map_or(0.0, |s| s.excluded_secs(r, rate));
         let kinds = || events.iter().map(|e| (e.foot, e.kind));
-        let (strides, parameters, reason) = match analysis {
-            Ok(a) => (a.strides.len(), Some(a.summary), None),
+        let (strides, parameters, reason) = match &live.analysis {
+            Ok(a) => (a.strides.len(), Some(a.summary.clone()), None),
             Err(e) => (0, None, Some(e.to_string())),
         };
         let report = LiveReport {
             method,
             rate_hz: Some(rate),
-            analysed_secs: grid.clip.duration_secs(),
+            analysed_secs: live.clip.duration_secs(),
             heel_strikes: FootCounts::count(kinds(), EventKind::HeelStrike),
             toe_offs: FootCounts::count(kinds(), EventKind::ToeOff),
             events_reported: self.reported_counts(),
-            segments: segmentation.as_ref().map_or(0, |s| s.segments.len()),
-            walking_secs: segmentation.as_ref().map_or(0.0, |s| s.walking_secs(rate)),
+            segments: segmentation.map_or(0, |s| s.segments.len()),
+            walking_secs: segmentation.map_or(0.0, |s| s.walking_secs(rate)),
             standing_secs: secs(ExclusionReason::Standing),
             turning_secs: secs(ExclusionReason::Turning),
             gap_secs: secs(ExclusionReason::Gap),
@@ -352,17 +379,19 @@ impl LiveGait {
         c
     }
 
-    /// Events not reported yet (and, with `limit`, not after it), reported now.
+    /// Events of `clip` (frame 0 at `first_nanos`) not reported yet (and, with `limit`, not
+    /// after it), reported now.
     fn take_new(
         &mut self,
-        grid: &Grid,
+        clip: &MotionClip,
+        first_nanos: i64,
         events: &[GaitEvent],
         limit: Option<i64>,
     ) -> Vec<TimedEvent> {
         let same = (self.params.gait.events.min_separation_secs * 0.5 * 1e9) as i64;
         let mut out = Vec::new();
         for e in events {
-            let stamp = grid.first_nanos + (e.time_secs * 1e9).round() as i64;
+            let stamp = first_nanos + (e.time_secs * 1e9).round() as i64;
             if limit.is_some_and(|l| stamp > l) {
                 continue;
             }
@@ -377,12 +406,8 @@ impl LiveGait {
             let joint = match (e.foot, e.kind) {
                 (Foot::Left, EventKind::HeelStrike) => Joint::AnkleLeft,
                 (Foot::Right, EventKind::HeelStrike) => Joint::AnkleRight,
-                (Foot::Left, EventKind::ToeOff) if grid.clip.has(Joint::FootLeft) => {
-                    Joint::FootLeft
-                }
-                (Foot::Right, EventKind::ToeOff) if grid.clip.has(Joint::FootRight) => {
-                    Joint::FootRight
-                }
+                (Foot::Left, EventKind::ToeOff) if clip.has(Joint::FootLeft) => Joint::FootLeft,
+                (Foot::Right, EventKind::ToeOff) if clip.has(Joint::FootRight) => Joint::FootRight,
                 (Foot::Left, EventKind::ToeOff) => Joint::AnkleLeft,
                 (Foot::Right, EventKind::ToeOff) => Joint::AnkleRight,
             };
@@ -391,7 +416,7 @@ impl LiveGait {
                 foot: e.foot,
                 kind: e.kind,
                 stamp_nanos: stamp,
-                position: grid.clip.position(frame, joint),
+                position: clip.position(frame, joint),
             };
             self.last_reported.insert(key, stamp);
             self.reported.push(event);
@@ -550,6 +575,65 @@ mod tests {
             report.events_reported.left + report.events_reported.right,
             streamed.len() + rest.len()
         );
+    }
+
+    /// What the stream reports is what its analysis keeps. A left ankle (and foot) lifted
+    /// 0.3 m over a heel strike's ±0.2 s leaves the horizontal motion the detector reads as it
+    /// was, but no foot lands in the air: that heel strike is not reported, every event
+    /// reported is one of the final analysis's (same foot and kind, within a frame), and the
+    /// report counts the heel strikes that analysis kept.
+    #[test]
+    fn reported_events_are_the_events_the_analysis_keeps() {
+        let mut rows = stream(12.0, 0.005, 0);
+        let mut probe = LiveGait::new(LiveGaitParams::default());
+        feed(&mut probe, &rows);
+        probe.finish();
+        let lifted = probe
+            .reported()
+            .iter()
+            .find(|e| {
+                e.foot == Foot::Left
+                    && e.kind == EventKind::HeelStrike
+                    && e.stamp_nanos > rows[0].0 + 4_000_000_000
+            })
+            .unwrap()
+            .stamp_nanos;
+        for (t, row) in &mut rows {
+            if (*t - lifted).abs() <= 200_000_000 {
+                for j in [Joint::AnkleLeft, Joint::FootLeft] {
+                    if let Some(p) = row.get_mut(&j) {
+                        p.z += 0.3;
+                    }
+                }
+            }
+        }
+        let mut live = LiveGait::new(LiveGaitParams::default());
+        let mut reported = feed(&mut live, &rows);
+        let (rest, report) = live.finish();
+        reported.extend(rest);
+        assert!(
+            !reported.iter().any(|e| e.foot == Foot::Left
+                && e.kind == EventKind::HeelStrike
+                && (e.stamp_nanos - lifted).abs() < 200_000_000),
+            "the heel strike in the air was reported: {reported:?}"
+        );
+        let a = live.analysis().unwrap();
+        let kept = &a.analysis.as_ref().unwrap().events;
+        let frame = (1e9 / a.clip.rate_hz()) as i64;
+        for e in &reported {
+            assert!(
+                kept.iter().any(|k| k.foot == e.foot
+                    && k.kind == e.kind
+                    && (a.stamp_nanos(k.time_secs) - e.stamp_nanos).abs() <= frame),
+                "{e:?} is not one of the analysis's events"
+            );
+        }
+        let left_strikes = kept
+            .iter()
+            .filter(|k| k.foot == Foot::Left && k.kind == EventKind::HeelStrike)
+            .count();
+        assert_eq!(report.heel_strikes.left, left_strikes);
+        assert!(left_strikes >= 3, "{report:#?}");
     }
 
     /// The running analysis of the lap so far has strides whose heel strikes map onto the

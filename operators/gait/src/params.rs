@@ -593,24 +593,34 @@ pub fn analyse(clip: &MotionClip, params: &GaitParams) -> Result<GaitAnalysis> {
     analyse_landmarks(&landmarks, params)
 }
 
-/// The full analysis of landmark tracks:
-///
-/// 1. outliers rejected and short gaps bridged ([`crate::clean()`]), and the floor levelled
-///    when the landmarks' frame is tilted ([`crate::floor`]);
-/// 2. stance levels and flight phases ([`crate::physics`]);
-/// 3. the treadmill correction when declared or detected ([`crate::treadmill`]);
-/// 4. straight walking segments; a segment whose feet do not alternate is excluded
-///    ([`ExclusionReason::NotAlternating`]);
-/// 5. events (method chosen for walking or running when `Auto`), dropping any whose foot is
-///    airborne;
-/// 6. strides, steps and their summary.
+/// Steps 1–5 of [`analyse_landmarks`]: the cleaned tracks, their walking segments and the events
+/// the parameters rest on, with what was dropped on the way. Without a walking segment there are
+/// no events; [`analyse_landmarks`] then says why there is no walking. A live analysis reports
+/// these events as they settle, so what it shows is what its parameters use.
+#[derive(Debug, Clone)]
+pub(crate) struct Detection {
+    /// The tracks after cleaning, floor levelling and any treadmill correction.
+    pub(crate) tracks: Tracks,
+    pub(crate) quality: DataQuality,
+    pub(crate) floor: Option<crate::floor::FloorLevel>,
+    pub(crate) flights: Vec<FlightPhase>,
+    pub(crate) treadmill: Option<Treadmill>,
+    pub(crate) segmentation: Segmentation,
+    pub(crate) running: bool,
+    pub(crate) method: crate::EventMethod,
+    /// Proposed events dropped because the foot was airborne.
+    pub(crate) rejected_events: usize,
+    /// Proposed events dropped as one of a too short contact.
+    pub(crate) short_contacts: usize,
+    /// The events kept, in the detectors' order.
+    pub(crate) events: Vec<GaitEvent>,
+}
+
+/// The events of landmark tracks: steps 1–5 of [`analyse_landmarks`] ([`Detection`]).
 ///
 /// # Errors
-/// [`Error::BadParameter`]; [`Error::NoWalking`] when no straight, alternating walking segment
-/// is found (standing subject, gaps everywhere, a turn-only clip, hopping);
-/// [`Error::TooFewStrides`] below [`GaitParams::min_strides`] complete strides, or with neither
-/// a stride nor a step.
-pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<GaitAnalysis> {
+/// [`Error::BadParameter`], or invalid landmarks.
+pub(crate) fn detect(landmarks: &Landmarks, params: &GaitParams) -> Result<Detection> {
     params.segments.validate()?;
     params.events.validate()?;
     params.physics.validate()?;
@@ -627,17 +637,6 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         &mut segmentation,
         params.max_alternation_correlation,
     );
-    if segmentation.segments.is_empty() {
-        return Err(Error::NoWalking {
-            duration_secs: tracks.len() as f64 / rate,
-            standing_secs: segmentation.excluded_secs(ExclusionReason::Standing, rate),
-            turning_secs: segmentation.excluded_secs(ExclusionReason::Turning, rate),
-            gap_secs: segmentation.excluded_secs(ExclusionReason::Gap, rate),
-            short_secs: segmentation.excluded_secs(ExclusionReason::TooShort, rate),
-            not_alternating_secs: segmentation.excluded_secs(ExclusionReason::NotAlternating, rate),
-            min_segment_secs: params.segments.min_segment_secs,
-        });
-    }
     let walking_frames: usize = segmentation
         .segments
         .iter()
@@ -659,12 +658,12 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         })
         .count();
     let walking_secs = walking_frames as f64 / rate;
-    let running = flight_frames as f64
-        >= crate::events::RUNNING_FLIGHT_FRACTION * walking_frames as f64
+    let running = walking_frames > 0
+        && flight_frames as f64 >= crate::events::RUNNING_FLIGHT_FRACTION * walking_frames as f64
         && flight_count as f64 >= crate::events::RUNNING_MIN_FLIGHTS_PER_SEC * walking_secs;
     let proposed = detect_in_tracks(&tracks, &segmentation, &params.events, running);
     let proposed_count = proposed.len();
-    let events: Vec<GaitEvent> = proposed
+    let mut events: Vec<GaitEvent> = proposed
         .into_iter()
         .filter(|e| {
             heights.allows(
@@ -676,7 +675,6 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         })
         .collect();
     let rejected_events = proposed_count - events.len();
-    let mut events = events;
     let method = match params.events.method {
         crate::EventMethod::Auto if running => crate::EventMethod::Velocity,
         crate::EventMethod::Auto => crate::EventMethod::Coordinate,
@@ -710,8 +708,63 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
         MIN_WALKING_CONTACT_SECS
     };
     let short_contacts = drop_short_contacts(&mut events, rate, min_contact_secs);
-    let strides = strides_in_tracks(&tracks, &segmentation, &events);
-    let steps = steps_in_tracks(&tracks, &segmentation, &events);
+    Ok(Detection {
+        tracks,
+        quality,
+        floor,
+        flights: heights.flights,
+        treadmill,
+        segmentation,
+        running,
+        method,
+        rejected_events,
+        short_contacts,
+        events,
+    })
+}
+
+/// The full analysis of landmark tracks:
+///
+/// 1. outliers rejected and short gaps bridged ([`crate::clean()`]), and the floor levelled
+///    when the landmarks' frame is tilted ([`crate::floor`]);
+/// 2. stance levels and flight phases ([`crate::physics`]);
+/// 3. the treadmill correction when declared or detected ([`crate::treadmill`]);
+/// 4. straight walking segments; a segment whose feet do not alternate is excluded
+///    ([`ExclusionReason::NotAlternating`]);
+/// 5. events (method chosen for walking or running when `Auto`), dropping any whose foot is
+///    airborne, and one of each heel strike and toe off too close together for a contact;
+/// 6. strides, steps and their summary.
+///
+/// # Errors
+/// [`Error::BadParameter`]; [`Error::NoWalking`] when no straight, alternating walking segment
+/// is found (standing subject, gaps everywhere, a turn-only clip, hopping);
+/// [`Error::TooFewStrides`] below [`GaitParams::min_strides`] complete strides, or with neither
+/// a stride nor a step.
+pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<GaitAnalysis> {
+    analyse_detection(detect(landmarks, params)?, params)
+}
+
+/// Step 6 of [`analyse_landmarks`]: strides, steps and their summary from the events found.
+///
+/// # Errors
+/// As [`analyse_landmarks`], but for bad parameters.
+pub(crate) fn analyse_detection(d: Detection, params: &GaitParams) -> Result<GaitAnalysis> {
+    let rate = d.tracks.rate_hz;
+    let segmentation = d.segmentation;
+    if segmentation.segments.is_empty() {
+        return Err(Error::NoWalking {
+            duration_secs: d.tracks.len() as f64 / rate,
+            standing_secs: segmentation.excluded_secs(ExclusionReason::Standing, rate),
+            turning_secs: segmentation.excluded_secs(ExclusionReason::Turning, rate),
+            gap_secs: segmentation.excluded_secs(ExclusionReason::Gap, rate),
+            short_secs: segmentation.excluded_secs(ExclusionReason::TooShort, rate),
+            not_alternating_secs: segmentation.excluded_secs(ExclusionReason::NotAlternating, rate),
+            min_segment_secs: params.segments.min_segment_secs,
+        });
+    }
+    let events = d.events;
+    let strides = strides_in_tracks(&d.tracks, &segmentation, &events);
+    let steps = steps_in_tracks(&d.tracks, &segmentation, &events);
     if strides.len() < params.min_strides || (strides.is_empty() && steps.is_empty()) {
         let count = |foot| {
             events
@@ -735,16 +788,16 @@ pub fn analyse_landmarks(landmarks: &Landmarks, params: &GaitParams) -> Result<G
     let timing = crate::timing::check(&events, &steps);
     Ok(GaitAnalysis {
         rate_hz: rate,
-        duration_secs: tracks.len().saturating_sub(1) as f64 / rate,
-        method,
-        running,
-        flights: heights.flights.clone(),
-        treadmill,
-        heel_source: tracks.heel_source,
-        quality,
-        floor,
-        rejected_events,
-        short_contacts,
+        duration_secs: d.tracks.len().saturating_sub(1) as f64 / rate,
+        method: d.method,
+        running: d.running,
+        flights: d.flights,
+        treadmill: d.treadmill,
+        heel_source: d.tracks.heel_source,
+        quality: d.quality,
+        floor: d.floor,
+        rejected_events: d.rejected_events,
+        short_contacts: d.short_contacts,
         segments: segmentation.segments,
         excluded: segmentation.excluded,
         events,
