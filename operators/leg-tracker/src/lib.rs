@@ -930,7 +930,9 @@ impl LegTracker {
             }
             _ => None,
         };
-        let by_motion = travel.is_some_and(|v| (v - ff.up * ff.up.dot(&v)).norm() > MIN_WALK_M);
+        // The travel when it is a walk rather than sway.
+        let walk = travel.filter(|v| (v - ff.up * ff.up.dot(v)).norm() > MIN_WALK_M);
+        let by_motion = walk.is_some();
         // The feet decide only for someone standing (seen still over the whole window) or on
         // the very first frame (a single recorded image); a person found again waits for the
         // window, as the feet of someone close to the sensor are often out of view, and a
@@ -941,10 +943,7 @@ impl LegTracker {
         {
             return;
         }
-        let forward = if by_motion {
-            let Some(v) = travel else {
-                return;
-            };
+        let forward = if let Some(v) = walk {
             v
         } else {
             let mut f = Vector3::zeros();

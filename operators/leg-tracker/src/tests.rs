@@ -308,16 +308,20 @@ fn mocap_walks_through_the_renderer() {
 
 /// The real Kinect v2 frame of a person in a room, against the SDK of the same instant.
 ///
-/// Measured: IoU 0.841 with the SDK's body index, whose mask also holds floor speckle around
-/// the feet that no depth segmentation should call the person: 3416 of the 3517 pixels the
-/// masks disagree on are SDK pixels within 5 cm of the floor, and over the rest of the image
-/// the IoU is 0.995 (asserted ≥ 0.98); joints: knees and the front
-/// ankle 5–7 cm from the SDK's, hips 15–16 cm (the SDK's hips are 8–12 cm below the
-/// stature-based hip joint centre here, at 0.45–0.47 of the stature), the rear ankle in
-/// toe-off 28 cm (its shank is taken by the front leg; the SDK itself reports that ankle
-/// inferred). The median of the six (the mean of the middle two) is 0.111 m, as `trigait legs`
-/// reports it. The goals are IoU ≥ 0.85 and a median ≤ 8 cm; this test pins the measured
-/// state (IoU ≥ 0.835, median ≤ 0.12 m) so it cannot get worse unnoticed.
+/// Measured: IoU 0.841 with the SDK's body index, whose mask also holds floor speckle that no
+/// depth segmentation should call the person (out to the image's sides): 3416 of the 3517 pixels
+/// the masks disagree on are SDK pixels within 5 cm of the floor, and over the rest of the image
+/// the IoU is 0.995 (asserted ≥ 0.98); against the SDK mask's largest 8-connected blob alone
+/// (19 884 of its 22 062 pixels; the rest are 104 specks) it is 0.933 (asserted ≥ 0.92). Joints:
+/// knees and the front ankle 5–7 cm from the SDK's, hips 15–16 cm (the SDK's hips are 8–12 cm
+/// below the stature-based hip joint centre here, at 0.45–0.47 of the stature), the rear ankle
+/// 28 cm. That foot is lifted behind in early swing (the colour image); the SDK reports its
+/// ankle inferred and puts it on the floor, 0.26 m from that foot, and the tracker puts it on
+/// the front leg's shank and calls it tracked, so neither is right there. The median of the
+/// six (the mean of the middle two) is 0.111 m, as `trigait legs` reports it; over the five the
+/// SDK tracked, 0.066 m (asserted ≤ 0.075 m). The goals are IoU ≥ 0.85 and a median ≤ 8 cm
+/// against the SDK's mask and skeleton as they are; this test pins the measured state (IoU ≥
+/// 0.835, median ≤ 0.12 m) so it cannot get worse unnoticed.
 #[test]
 fn real_frame_against_the_sdk() {
     let (Some(depth), Some(mask), Some(skel)) = (
@@ -361,18 +365,51 @@ fn real_frame_against_the_sdk() {
         union - inter
     );
     assert!(iou_up >= 0.98, "IoU above the floor {iou_up:.3}");
+    // The same against the SDK mask's person alone: its largest 8-connected blob, without the
+    // specks of floor scattered over the image's bottom.
+    let person = largest_blob(truth.as_slice());
+    let (inter_p, union_p) = out
+        .person_mask
+        .iter()
+        .zip(&person)
+        .fold((0, 0), |(i, u), (a, b)| {
+            (i + usize::from(*a && *b), u + usize::from(*a || *b))
+        });
+    let iou_person = inter_p as f64 / union_p as f64;
+    eprintln!(
+        "IoU against the SDK mask's largest blob ({} of its {} pixels) {iou_person:.3}",
+        person.iter().filter(|p| **p).count(),
+        truth.as_slice().iter().filter(|p| **p).count()
+    );
+    assert!(
+        iou_person >= 0.92,
+        "IoU against the SDK's blob {iou_person:.3}"
+    );
     let mut errors = Vec::new();
+    let mut errors_sdk_tracked = Vec::new();
     for j in Joint::LEGS {
         let (Some(t), Some(s)) = (out.joint(j), sdk[0].joints.iter().find(|s| s.joint == j)) else {
             continue;
         };
         let e = (t.position_in_kinect - s.position_in_kinect).norm();
         eprintln!(
-            "{j:?}: tracker {:?} sdk {:?} error {e:.3} m ({:?})",
-            t.position_in_kinect, s.position_in_kinect, t.state
+            "{j:?}: tracker {:?} sdk {:?} error {e:.3} m (tracker {:?}, SDK {:?})",
+            t.position_in_kinect, s.position_in_kinect, t.state, s.state
         );
         errors.push(e);
+        if s.state == TrackingState::Tracked {
+            errors_sdk_tracked.push(e);
+        }
     }
+    // Scored only where the SDK tracked the joint: the SDK infers the rear ankle, and puts it on
+    // the floor where the colour image shows that foot lifted behind in early swing.
+    eprintln!(
+        "median error against the joints the SDK tracked ({} of 6): {:.3} m",
+        errors_sdk_tracked.len(),
+        median(errors_sdk_tracked.clone())
+    );
+    assert_eq!(errors_sdk_tracked.len(), 5);
+    assert!(median(errors_sdk_tracked) <= 0.075);
     eprintln!(
         "IoU {iou:.3}, {} people, share {:.3}, floor {:?}, stature {:?}, lengths {:?}",
         out.people, out.person_share, out.floor, out.stature_m, out.segment_lengths_m
@@ -382,6 +419,47 @@ fn real_frame_against_the_sdk() {
     let m = median(errors);
     eprintln!("median error against the SDK {m:.3} m");
     assert!(m <= 0.12, "median {m:.3} m");
+}
+
+/// The largest 8-connected blob of a mask.
+fn largest_blob(mask: &[bool]) -> Vec<bool> {
+    let (w, h) = (trigait_depth::WIDTH, trigait_depth::HEIGHT);
+    let mut label = vec![usize::MAX; mask.len()];
+    let (mut best, mut best_n) = (usize::MAX, 0);
+    for start in 0..mask.len() {
+        if !mask[start] || label[start] != usize::MAX {
+            continue;
+        }
+        label[start] = start;
+        let (mut stack, mut n) = (vec![start], 0);
+        while let Some(i) = stack.pop() {
+            n += 1;
+            let (u, v) = ((i % w) as i64, (i / w) as i64);
+            for (du, dv) in [
+                (-1, -1),
+                (0, -1),
+                (1, -1),
+                (-1, 0),
+                (1, 0),
+                (-1, 1),
+                (0, 1),
+                (1, 1),
+            ] {
+                let (x, y) = (u + du, v + dv);
+                if (0..w as i64).contains(&x) && (0..h as i64).contains(&y) {
+                    let k = y as usize * w + x as usize;
+                    if mask[k] && label[k] == usize::MAX {
+                        label[k] = start;
+                        stack.push(k);
+                    }
+                }
+            }
+        }
+        if n > best_n {
+            (best, best_n) = (start, n);
+        }
+    }
+    label.iter().map(|l| best_n > 0 && *l == best).collect()
 }
 
 fn thesis_k1() -> Isometry3<f64> {

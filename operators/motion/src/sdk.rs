@@ -71,14 +71,25 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
         if cols.is_empty() {
             continue;
         }
-        let this = match cols.len() {
-            76 => Some(Layout::Positions),
-            201 => Some(Layout::States),
-            n if n >= 177 => Some(Layout::Timed),
-            _ => None,
+        let n = cols.len();
+        let columns_error = || {
+            (
+                line_no,
+                format!(
+                    "{n} columns, expected 76 (frame + 25×xyz), 201 (frame + 25×state xyz \
+                     quaternion), 202 (frame, time + 25×state xyz quaternion) or 177 (frame, \
+                     time + 175 zeros)"
+                ),
+            )
         };
-        match (layout, this) {
-            (Some((first, at)), Some(this)) if first != this => {
+        let this = match n {
+            76 => Layout::Positions,
+            201 => Layout::States,
+            n if n >= 177 => Layout::Timed,
+            _ => return Err(columns_error()),
+        };
+        match layout {
+            Some((first, at)) if first != this => {
                 return Err((
                     line_no,
                     format!(
@@ -90,8 +101,8 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
                     ),
                 ));
             }
-            (None, Some(this)) => layout = Some((this, line_no)),
-            _ => {}
+            None => layout = Some((this, line_no)),
+            Some(_) => {}
         }
         let number = |c: &str| -> std::result::Result<f64, (usize, String)> {
             c.parse::<f64>()
@@ -110,8 +121,7 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
             })
         };
         // Timed logs: `frame time_ms` pairs, then either 25 joints or 175 zeros (no body).
-        let n = cols.len();
-        if n >= 177 && n != 201 && n != 202 {
+        if this == Layout::Timed && n != 202 {
             let (pairs, zeros) = cols.split_at(n - NO_BODY_ZEROS);
             let all_zero = zeros
                 .iter()
@@ -127,21 +137,12 @@ pub fn parse_sdk_skeletons(text: &str) -> std::result::Result<Vec<SdkFrame>, (us
                 }
                 continue;
             }
+            return Err(columns_error());
         }
-        let (stride, first_joint, time_ms) = match n {
-            76 => (3, 1, None),
-            201 => (8, 1, None),
-            202 => (8, 2, Some(number(cols[1])?)),
-            n => {
-                return Err((
-                    line_no,
-                    format!(
-                        "{n} columns, expected 76 (frame + 25×xyz), 201 (frame + 25×state xyz \
-                         quaternion), 202 (frame, time + 25×state xyz quaternion) or 177 (frame, \
-                         time + 175 zeros)"
-                    ),
-                ));
-            }
+        let (stride, first_joint, time_ms) = match this {
+            Layout::Positions => (3, 1, None),
+            Layout::States => (8, 1, None),
+            Layout::Timed => (8, 2, Some(number(cols[1])?)),
         };
         let frame_number = frame_number_of(cols[0])?;
         let mut joints = Vec::with_capacity(25);
