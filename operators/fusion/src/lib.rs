@@ -93,7 +93,9 @@ impl FusionRig {
 
     /// The estimator inputs of one instant: per joint any sensor reported, one observation per
     /// sensor that reported it, sensors in rig order. Samples of a sensor the rig does not know
-    /// are left out and its id is listed in [`Observed::unknown_sensors`].
+    /// are left out and its id is listed in [`Observed::unknown_sensors`]. A sample marked
+    /// `NotTracked` is no measurement (the Kinect SDK and the leg tracker put such a joint
+    /// wherever their model left it) and is left out too.
     #[must_use]
     pub fn observe(&self, samples: &[SensorSamples<'_>]) -> Observed {
         let mut unknown_sensors: Vec<String> = samples
@@ -118,7 +120,7 @@ impl FusionRig {
                     .joints
                     .iter()
                     .enumerate()
-                    .find(|(_, s)| s.joint == joint)
+                    .find(|(_, s)| s.joint == joint && s.state != TrackingState::NotTracked)
                 else {
                     continue;
                 };
@@ -440,6 +442,49 @@ mod tests {
 
     /// A resampling error widens that observation's covariance by e² per axis, and not when
     /// weighing it is switched off.
+    /// A sample marked `NotTracked` is no measurement: a knee put 0.5 m off by one sensor's
+    /// model leaves the fused knee where the two tracking sensors put it, and a joint no sensor
+    /// tracks has no estimate.
+    #[test]
+    fn not_tracked_samples_are_left_out() {
+        let rig = Rig::from_spec("thesis").unwrap();
+        let fusion = FusionRig::new(&rig, &NoiseModel::default());
+        let knee = Point3::new(0.3, 0.1, 0.5);
+        let joints: Vec<Vec<JointSample>> = rig
+            .sensors
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let k = s.world_from_kinect.inverse_transform_point(&knee);
+                let mut knee_sample = sample(Joint::KneeLeft, k);
+                let mut ankle =
+                    sample(Joint::AnkleLeft, k + nalgebra::Vector3::new(0.0, -0.4, 0.0));
+                ankle.state = TrackingState::NotTracked;
+                if i == 2 {
+                    knee_sample.position_in_kinect += nalgebra::Vector3::new(0.5, 0.0, 0.0);
+                    knee_sample.state = TrackingState::NotTracked;
+                }
+                vec![knee_sample, ankle]
+            })
+            .collect();
+        let samples: Vec<SensorSamples<'_>> = rig
+            .sensors
+            .iter()
+            .zip(&joints)
+            .map(|(s, j)| SensorSamples {
+                sensor_id: &s.id,
+                joints: j,
+                resampling_error_m: &[],
+            })
+            .collect();
+        let (fused, observed) = fuse_instant(&fusion, &samples, &Params::new(Method::Fusion));
+        assert_eq!(observed.joints[&Joint::KneeLeft].sensors, vec![0, 1]);
+        let k = fused.joints[&Joint::KneeLeft].result.as_ref().unwrap();
+        assert!((k.position - knee).norm() < 1e-9, "{:?}", k.position);
+        assert!(observed.joints[&Joint::AnkleLeft].observations.is_empty());
+        assert!(fused.joints[&Joint::AnkleLeft].result.is_err());
+    }
+
     #[test]
     fn resampling_error_adds_to_the_covariance() {
         let rig = Rig::from_spec("thesis").unwrap();

@@ -29,15 +29,16 @@ fn rms(v: &[f64]) -> f64 {
 /// fused plain and robust; the first second (the tracker still learning the lengths) is not
 /// scored.
 ///
-/// Measured: the tracker's own error by state, RMS tracked 6.4–7.0 cm, inferred 17–19 cm (the
-/// noise model weighs inferred joints ×3); fused RMSE 0.065 m plain and robust (hips and knees
-/// 4 cm, ankles 8–11 cm, feet 5–8 cm) — against 0.02 m for the skeleton-level graph. Before the
-/// `Foot` joint was placed at the forefoot and the lower-leg exchange tried below the crossing
-/// of the predicted axes: 0.106 m plain, 0.100 m robust (ankles 9–13 cm, feet 15–17 cm). The gap
-/// to the skeleton graph is the tracker's ankles and feet, not the host, and most of it is in the
-/// 0.35 s after each of the lap's instant turns: there 8 % of the joints, RMS 0.18–0.19 m;
-/// elsewhere 0.039 m plain, 0.036 m robust. Pinned: robust no worse than plain, hips and knees
-/// ≤ 6 cm, ankles ≤ 12 cm, feet ≤ 10 cm, all ≤ 0.07 m, away from the turns ≤ 0.045 m.
+/// Measured: the tracker's own error by state, RMS tracked 4.9–7.0 cm, inferred 17–19 cm (the
+/// noise model weighs inferred joints ×3); fused RMSE 0.056 m plain, 0.054 m robust (hips 4 cm,
+/// knees 3.5 cm, ankles 7–9 cm, feet 4–6 cm) — against 0.02 m for the skeleton-level graph; 0.066
+/// m before the walking direction was read only off hips seen, 0.055–0.056 m while the joints
+/// the tracker marks `NotTracked` still went into the fusion (the graph's `sync` drops them).
+/// The gap to the skeleton graph is the tracker's ankles and feet, not the host, and most of it
+/// is in the 0.35 s after each of the lap's instant turns: there 8 % of the joints, RMS
+/// 0.14–0.15 m; elsewhere 0.038 m plain, 0.034 m robust. Pinned: robust no worse than plain,
+/// hips and knees ≤ 6 cm, ankles ≤ 12 cm, feet ≤ 10 cm, all ≤ 0.07 m, away from the turns
+/// ≤ 0.045 m.
 #[test]
 fn tracked_depth_fused_from_all_three_sensors() {
     let rig = Rig::builtin("thesis").unwrap();
