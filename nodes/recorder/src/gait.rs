@@ -4,8 +4,8 @@
 //! The analysis is `trigait-gait`'s [`LiveGait`] with the `trigait gait` defaults (Zeni et al.
 //! 2008 coordinate method): every second of stream time the retained fused trajectories are
 //! analysed again in full, and the events that analysis keeps that have settled (1.5 s old) are
-//! logged, so every marker is an event the parameters use; when one is a heel strike, the table
-//! and the flexion curves are redrawn from that same analysis. At the end the rest is logged and
+//! logged, so no marker stands for a foot in the air or a contact too short to be one; when one
+//! is a heel strike, the table and the flexion curves are redrawn from that same analysis. At the end the rest is logged and
 //! the parameters computed over the whole recording.
 //!
 //! It runs on a thread of its own, fed the poses through a channel: a full analysis takes tens

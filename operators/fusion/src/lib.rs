@@ -95,7 +95,8 @@ impl FusionRig {
     /// sensor that reported it, sensors in rig order. Samples of a sensor the rig does not know
     /// are left out and its id is listed in [`Observed::unknown_sensors`]. A sample marked
     /// `NotTracked` is no measurement (the Kinect SDK and the leg tracker put such a joint
-    /// wherever their model left it) and is left out too.
+    /// wherever their model left it): it is left out too, also as a neighbour giving a limb's
+    /// axis, and a joint no sensor tracks is not among the joints.
     #[must_use]
     pub fn observe(&self, samples: &[SensorSamples<'_>]) -> Observed {
         let mut unknown_sensors: Vec<String> = samples
@@ -105,10 +106,7 @@ impl FusionRig {
             .collect();
         unknown_sensors.sort();
         unknown_sensors.dedup();
-        let reported: BTreeSet<Joint> = samples
-            .iter()
-            .flat_map(|s| s.joints.iter().map(|j| j.joint))
-            .collect();
+        let reported = measured_joints(samples);
         let mut joints = BTreeMap::new();
         for joint in reported {
             let mut seen = JointObservations::default();
@@ -125,11 +123,11 @@ impl FusionRig {
                     continue;
                 };
                 // The limb axis (the depth noise's incidence term) comes from the same
-                // sensor's reported joints.
+                // sensor's measured joints.
                 let Some(o) = observation(sensor, joint, sample.state, |j| {
                     view.joints
                         .iter()
-                        .find(|s| s.joint == j)
+                        .find(|s| s.joint == j && s.state != TrackingState::NotTracked)
                         .map(|s| s.position_in_kinect)
                 }) else {
                     continue;
@@ -178,6 +176,16 @@ pub fn observation(
     Some(Observation::new(sensor.world_from_kinect, p, covariance))
 }
 
+/// The joints some sensor measured (reported other than `NotTracked`).
+fn measured_joints(samples: &[SensorSamples<'_>]) -> BTreeSet<Joint> {
+    samples
+        .iter()
+        .flat_map(|s| s.joints.iter())
+        .filter(|j| j.state != TrackingState::NotTracked)
+        .map(|j| j.joint)
+        .collect()
+}
+
 /// The observations of one joint at one instant.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct JointObservations {
@@ -185,14 +193,14 @@ pub struct JointObservations {
     pub sensors: Vec<usize>,
     /// Each sensor's tracking state of the joint.
     pub states: Vec<TrackingState>,
-    /// One per sensor that reported the joint.
+    /// One per sensor that measured the joint (reported it other than `NotTracked`).
     pub observations: Vec<Observation>,
 }
 
 /// The estimator inputs of one instant ([`FusionRig::observe`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Observed {
-    /// Per joint some sensor reported.
+    /// Per joint some sensor measured.
     pub joints: BTreeMap<Joint, JointObservations>,
     /// Ids of sensors the rig does not know (their samples were left out), sorted.
     pub unknown_sensors: Vec<String>,
@@ -273,7 +281,7 @@ impl JointFusion {
 /// Every joint of one instant through the estimator ([`Observed::estimate`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FusedInstant {
-    /// Per joint some sensor reported.
+    /// Per joint some sensor measured.
     pub joints: BTreeMap<Joint, JointFusion>,
 }
 
@@ -321,11 +329,7 @@ impl PoseFuser {
         missing_sensors: Vec<String>,
     ) -> (FusedPose, Vec<String>) {
         let (fused, observed) = fuse_instant(&self.rig, samples, &self.params);
-        self.seen.extend(
-            samples
-                .iter()
-                .flat_map(|s| s.joints.iter().map(|j| j.joint)),
-        );
+        self.seen.extend(measured_joints(samples));
         let id = |i: &usize| self.rig.sensors.get(*i).map(|s| s.id.clone());
         let mut pose = FusedPose {
             set_seq,
@@ -440,8 +444,6 @@ mod tests {
         assert!((at_truth[0].position_in_world() - knee).norm() < 1e-12);
     }
 
-    /// A resampling error widens that observation's covariance by e² per axis, and not when
-    /// weighing it is switched off.
     /// A sample marked `NotTracked` is no measurement: a knee put 0.5 m off by one sensor's
     /// model leaves the fused knee where the two tracking sensors put it, and a joint no sensor
     /// tracks has no estimate.
@@ -481,10 +483,12 @@ mod tests {
         assert_eq!(observed.joints[&Joint::KneeLeft].sensors, vec![0, 1]);
         let k = fused.joints[&Joint::KneeLeft].result.as_ref().unwrap();
         assert!((k.position - knee).norm() < 1e-9, "{:?}", k.position);
-        assert!(observed.joints[&Joint::AnkleLeft].observations.is_empty());
-        assert!(fused.joints[&Joint::AnkleLeft].result.is_err());
+        assert!(!observed.joints.contains_key(&Joint::AnkleLeft));
+        assert!(!fused.joints.contains_key(&Joint::AnkleLeft));
     }
 
+    /// A resampling error widens that observation's covariance by e² per axis, and not when
+    /// weighing it is switched off.
     #[test]
     fn resampling_error_adds_to_the_covariance() {
         let rig = Rig::from_spec("thesis").unwrap();

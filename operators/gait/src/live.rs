@@ -10,13 +10,16 @@
 //!
 //! **Settled events.** Every [`LiveGaitParams::analyse_every_secs`] the whole retained window is
 //! analysed again, as [`crate::analyse`] does it (cleaning, the airborne and short-contact
-//! checks), and the events that analysis keeps are the ones reported: what the viewer marks is
-//! what the parameters rest on. An event is reported once it lies
+//! checks), and only events that analysis keeps are reported: a foot in the air or a contact
+//! too short to be one is never marked. An event is reported once it lies
 //! [`LiveGaitParams::settle_secs`] before the newest pose, because the segmentation looks half a
-//! velocity window ahead and a turning point at the very end of the data is not yet a peak. Later analyses find the same event again,
-//! within a frame; one of the same foot and kind closer than half the minimum event separation
-//! to one already reported is the same event and is not reported twice. At the end
-//! ([`LiveGait::finish`]) the remaining events are reported and the parameters computed.
+//! velocity window ahead and a turning point at the very end of the data is not yet a peak.
+//! Later analyses find the same event again, within a frame; one of the same foot and kind
+//! closer than half the minimum event separation to one already reported is the same event and
+//! is not reported twice. A reported event stays reported, though a later analysis of the longer
+//! window may still drop it (a segment found not to alternate, a walk found to be a run): the
+//! counts in [`LiveReport`] are the final analysis's. At the end ([`LiveGait::finish`]) the
+//! remaining events are reported and the parameters computed.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -112,9 +115,10 @@ pub struct LiveReport {
     pub toe_offs: FootCounts,
     /// Events reported while streaming and at the end (what was logged), both kinds.
     pub events_reported: FootCounts,
-    /// Straight walking segments.
+    /// Straight walking segments the final analysis kept (after cleaning; segments whose feet
+    /// do not alternate are left out).
     pub segments: usize,
-    /// Time in straight walking (s).
+    /// Time in those segments (s).
     pub walking_secs: f64,
     /// Time excluded as standing (s).
     pub standing_secs: f64,
@@ -122,6 +126,9 @@ pub struct LiveReport {
     pub turning_secs: f64,
     /// Time excluded for gaps (s).
     pub gap_secs: f64,
+    /// Time excluded because the feet did not alternate (hops, shuffling) (s).
+    #[serde(default)]
+    pub not_alternating_secs: f64,
     /// Complete strides (both feet).
     pub strides: usize,
     /// Mean cadence (steps/min) over the strides.
@@ -241,8 +248,8 @@ impl LiveGait {
         }
     }
 
-    /// Runs the detection when due and returns the events that became final since the last
-    /// call.
+    /// Runs the analysis when due and returns the events it kept that became final since the
+    /// last call.
     pub fn poll(&mut self) -> Vec<TimedEvent> {
         let Some((&newest, _)) = self.samples.last_key_value() else {
             return Vec::new();
@@ -318,6 +325,7 @@ impl LiveGait {
                 standing_secs: 0.0,
                 turning_secs: 0.0,
                 gap_secs: 0.0,
+                not_alternating_secs: 0.0,
                 strides: 0,
                 cadence_steps_per_min: None,
                 stride_length_m: None,
@@ -354,6 +362,7 @@ impl LiveGait {
             standing_secs: secs(ExclusionReason::Standing),
             turning_secs: secs(ExclusionReason::Turning),
             gap_secs: secs(ExclusionReason::Gap),
+            not_alternating_secs: secs(ExclusionReason::NotAlternating),
             strides,
             cadence_steps_per_min: parameters
                 .as_ref()
@@ -579,9 +588,10 @@ mod tests {
 
     /// What the stream reports is what its analysis keeps. A left ankle (and foot) lifted
     /// 0.3 m over a heel strike's ±0.2 s leaves the horizontal motion the detector reads as it
-    /// was, but no foot lands in the air: that heel strike is not reported, every event
-    /// reported is one of the final analysis's (same foot and kind, within a frame), and the
-    /// report counts the heel strikes that analysis kept.
+    /// was, but no foot lands in the air: the airborne check drops that heel strike and it is
+    /// not reported; every event reported is one of the final analysis's and every one it kept
+    /// was reported (same foot and kind, within a frame); the report counts the heel strikes
+    /// that analysis kept.
     #[test]
     fn reported_events_are_the_events_the_analysis_keeps() {
         let mut rows = stream(12.0, 0.005, 0);
@@ -618,14 +628,26 @@ mod tests {
             "the heel strike in the air was reported: {reported:?}"
         );
         let a = live.analysis().unwrap();
-        let kept = &a.analysis.as_ref().unwrap().events;
+        let analysis = a.analysis.as_ref().unwrap();
+        // Dropped by the airborne check, not lost to a gap.
+        assert!(analysis.rejected_events >= 1, "{analysis:#?}");
+        let kept = &analysis.events;
         let frame = (1e9 / a.clip.rate_hz()) as i64;
+        let matches = |e: &TimedEvent, k: &GaitEvent| {
+            k.foot == e.foot
+                && k.kind == e.kind
+                && (a.stamp_nanos(k.time_secs) - e.stamp_nanos).abs() <= frame
+        };
         for e in &reported {
             assert!(
-                kept.iter().any(|k| k.foot == e.foot
-                    && k.kind == e.kind
-                    && (a.stamp_nanos(k.time_secs) - e.stamp_nanos).abs() <= frame),
+                kept.iter().any(|k| matches(e, k)),
                 "{e:?} is not one of the analysis's events"
+            );
+        }
+        for k in kept {
+            assert!(
+                reported.iter().any(|e| matches(e, k)),
+                "{k:?} was kept but not reported"
             );
         }
         let left_strikes = kept

@@ -612,7 +612,7 @@ pub(crate) struct Detection {
     pub(crate) rejected_events: usize,
     /// Proposed events dropped as one of a too short contact.
     pub(crate) short_contacts: usize,
-    /// The events kept, in the detectors' order.
+    /// The events kept, in time order.
     pub(crate) events: Vec<GaitEvent>,
 }
 
