@@ -102,7 +102,8 @@ impl FootCounts {
 /// The end-of-stream report (the recorder's `summary.json` `gait` section).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LiveReport {
-    /// Event detector.
+    /// Event detector: the one the final analysis used, or the configured one (`auto` by
+    /// default) when there was no analysis.
     pub method: EventMethod,
     /// Sample rate found from the stamps (Hz); `None` with too few poses.
     pub rate_hz: Option<f64>,
@@ -351,7 +352,7 @@ impl LiveGait {
             Err(e) => (0, None, Some(e.to_string())),
         };
         let report = LiveReport {
-            method,
+            method: live.analysis.as_ref().map_or(method, |a| a.method),
             rate_hz: Some(rate),
             analysed_secs: live.clip.duration_secs(),
             heel_strikes: FootCounts::count(kinds(), EventKind::HeelStrike),
@@ -576,6 +577,7 @@ mod tests {
             "{report:#?}"
         );
         assert!((report.rate_hz.unwrap() - 30.0).abs() < 0.01);
+        assert_eq!(report.method, EventMethod::Coordinate);
         assert!(
             report.turning_secs + report.standing_secs > 0.5,
             "{report:#?}"
