@@ -394,13 +394,31 @@ mod tests {
         }
     }
 
+    /// The thesis rig, its fusion with the default noise, and a knee in the world.
+    fn thesis_and_knee() -> (Rig, FusionRig, Point3<f64>) {
+        let rig = Rig::from_spec("thesis").unwrap();
+        let fusion = FusionRig::new(&rig, &NoiseModel::default());
+        (rig, fusion, Point3::new(0.3, 0.1, 0.5))
+    }
+
+    /// Each rig sensor's samples, in rig order.
+    fn views<'a>(rig: &'a Rig, joints: &'a [Vec<JointSample>]) -> Vec<SensorSamples<'a>> {
+        rig.sensors
+            .iter()
+            .zip(joints)
+            .map(|(s, j)| SensorSamples {
+                sensor_id: &s.id,
+                joints: j,
+                resampling_error_m: &[],
+            })
+            .collect()
+    }
+
     /// Three sensors see a knee exactly: each observation carries its sensor's pose, the
     /// estimate lands on the truth, and a sensor the rig does not know is named and left out.
     #[test]
     fn observes_in_rig_order_and_names_unknown_sensors() {
-        let rig = Rig::from_spec("thesis").unwrap();
-        let fusion = FusionRig::new(&rig, &NoiseModel::default());
-        let knee = Point3::new(0.3, 0.1, 0.5);
+        let (rig, fusion, knee) = thesis_and_knee();
         let joints: Vec<Vec<JointSample>> = rig
             .sensors
             .iter()
@@ -413,17 +431,8 @@ mod tests {
             .collect();
         let stray = vec![sample(Joint::KneeLeft, Point3::new(0.0, 0.0, 2.0))];
         // Reverse order in, rig order out.
-        let mut samples: Vec<SensorSamples<'_>> = rig
-            .sensors
-            .iter()
-            .zip(&joints)
-            .rev()
-            .map(|(s, j)| SensorSamples {
-                sensor_id: &s.id,
-                joints: j,
-                resampling_error_m: &[],
-            })
-            .collect();
+        let mut samples = views(&rig, &joints);
+        samples.reverse();
         samples.push(SensorSamples {
             sensor_id: "k9",
             joints: &stray,
@@ -449,9 +458,7 @@ mod tests {
     /// tracks has no estimate.
     #[test]
     fn not_tracked_samples_are_left_out() {
-        let rig = Rig::from_spec("thesis").unwrap();
-        let fusion = FusionRig::new(&rig, &NoiseModel::default());
-        let knee = Point3::new(0.3, 0.1, 0.5);
+        let (rig, fusion, knee) = thesis_and_knee();
         let joints: Vec<Vec<JointSample>> = rig
             .sensors
             .iter()
@@ -469,16 +476,7 @@ mod tests {
                 vec![knee_sample, ankle]
             })
             .collect();
-        let samples: Vec<SensorSamples<'_>> = rig
-            .sensors
-            .iter()
-            .zip(&joints)
-            .map(|(s, j)| SensorSamples {
-                sensor_id: &s.id,
-                joints: j,
-                resampling_error_m: &[],
-            })
-            .collect();
+        let samples = views(&rig, &joints);
         let (fused, observed) = fuse_instant(&fusion, &samples, &Params::new(Method::Fusion));
         assert_eq!(observed.joints[&Joint::KneeLeft].sensors, vec![0, 1]);
         let k = fused.joints[&Joint::KneeLeft].result.as_ref().unwrap();
