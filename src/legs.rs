@@ -125,7 +125,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
         let tracked = tracker.track(&depth);
         let iou = mask
             .as_ref()
-            .map(|m| iou(&tracked.person_mask, m.as_slice()));
+            .map(|m| trigait_leg_tracker::mask_iou(&tracked.person_mask, m.as_slice()));
         let (mask_png, overlay_png) = match &args.out {
             Some(dir) => {
                 let stem = file
@@ -181,21 +181,6 @@ pub fn run(args: &Args) -> eyre::Result<()> {
         }
     }
     crate::stdout::print(&text)
-}
-
-/// Intersection over union of two pixel masks (an empty `found` is no pixel).
-fn iou(found: &[bool], truth: &[bool]) -> f64 {
-    let (mut inter, mut union) = (0_usize, 0_usize);
-    for (i, t) in truth.iter().enumerate() {
-        let f = found.get(i).copied().unwrap_or(false);
-        inter += usize::from(f && *t);
-        union += usize::from(f || *t);
-    }
-    if union == 0 {
-        0.0
-    } else {
-        inter as f64 / union as f64
-    }
 }
 
 fn state_name(state: TrackingState) -> &'static str {

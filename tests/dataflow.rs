@@ -62,9 +62,9 @@ fn assert_latency_within_budget(s: &Value) {
 }
 
 /// Live means fresh: a pose reaches the recorder at most `bound_ms` after its fusion instant
-/// for the `quantile` (`"p99"` or `"p95"`) of the steady-state poses (`age_ms`; the first sets wait for every sensor's clock sync
-/// and are reported under `warmup`, the last ones, while the sources shut down, under
-/// `wind_down`). `sync` hands a set on once every sensor's frame after the
+/// for the `quantile` (`"p99"` or `"p95"`) of the steady-state poses (`age_ms`; the first sets
+/// wait for every sensor's clock sync and are reported under `warmup`, the last ones, while the
+/// sources shut down, under `wind_down`). `sync` hands a set on once every sensor's frame after the
 /// instant is in, or a sensor's frame is overdue; the deadline is the exception, not the rule.
 fn assert_fresh(s: &Value, quantile: &str, bound_ms: f64) {
     let age = &s["age_ms"];

@@ -5,8 +5,8 @@
 //! 2008 coordinate method): every second of stream time the retained fused trajectories are
 //! analysed again in full, and the events that analysis keeps that have settled (1.5 s old) are
 //! logged, so no marker stands for a foot in the air or a contact too short to be one; when one
-//! is a heel strike, the table and the flexion curves are redrawn from that same analysis. At the end the rest is logged and
-//! the parameters computed over the whole recording.
+//! is a heel strike, the table and the flexion curves are redrawn from that same analysis. At
+//! the end the rest is logged and the parameters computed over the whole recording.
 //!
 //! It runs on a thread of its own, fed the poses through a channel: a full analysis takes tens
 //! of milliseconds (35 ms for a 24 s window on the 2-core machine, 140 ms for 10 min), which on

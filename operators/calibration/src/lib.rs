@@ -142,7 +142,7 @@ impl TrackFrame {
     fn get(&self, joint: Joint) -> Option<Point3<f64>> {
         self.joints
             .iter()
-            .find(|s| s.joint == joint && s.state != TrackingState::NotTracked)
+            .find(|s| s.joint == joint && s.is_measured())
             .map(|s| s.position_in_kinect)
     }
 }
@@ -406,7 +406,7 @@ fn clean(track: &SensorTrack, joints: &[Joint]) -> Cleaned {
                 .joints
                 .iter()
                 .filter(|s| {
-                    s.state != TrackingState::NotTracked
+                    s.is_measured()
                         && s.position_in_kinect.coords.iter().all(|v| v.is_finite())
                         && s.position_in_kinect.z > 0.0
                 })

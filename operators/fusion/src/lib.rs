@@ -118,7 +118,7 @@ impl FusionRig {
                     .joints
                     .iter()
                     .enumerate()
-                    .find(|(_, s)| s.joint == joint && s.state != TrackingState::NotTracked)
+                    .find(|(_, s)| s.joint == joint && s.is_measured())
                 else {
                     continue;
                 };
@@ -127,7 +127,7 @@ impl FusionRig {
                 let Some(o) = observation(sensor, joint, sample.state, |j| {
                     view.joints
                         .iter()
-                        .find(|s| s.joint == j && s.state != TrackingState::NotTracked)
+                        .find(|s| s.joint == j && s.is_measured())
                         .map(|s| s.position_in_kinect)
                 }) else {
                     continue;
@@ -181,7 +181,7 @@ fn measured_joints(samples: &[SensorSamples<'_>]) -> BTreeSet<Joint> {
     samples
         .iter()
         .flat_map(|s| s.joints.iter())
-        .filter(|j| j.state != TrackingState::NotTracked)
+        .filter(|j| j.is_measured())
         .map(|j| j.joint)
         .collect()
 }

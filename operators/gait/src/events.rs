@@ -120,6 +120,16 @@ pub const RUNNING_FLIGHT_FRACTION: f64 = 0.03;
 pub const RUNNING_MIN_FLIGHTS_PER_SEC: f64 = 1.25;
 
 impl EventMethod {
+    /// The detector run on a clip judged running (`running`) or walking: `Auto` picks the
+    /// velocity method for running and the coordinate method for walking.
+    pub(crate) fn for_clip(self, running: bool) -> Self {
+        match self {
+            EventMethod::Auto if running => EventMethod::Velocity,
+            EventMethod::Auto => EventMethod::Coordinate,
+            m => m,
+        }
+    }
+
     /// Name used on the command line and in JSON.
     #[must_use]
     pub fn name(self) -> &'static str {
@@ -252,11 +262,7 @@ pub(crate) fn detect_in_tracks(
     params: &EventParams,
     running: bool,
 ) -> Vec<GaitEvent> {
-    let method = match params.method {
-        EventMethod::Auto if running => EventMethod::Velocity,
-        EventMethod::Auto => EventMethod::Coordinate,
-        m => m,
-    };
+    let method = params.method.for_clip(running);
     let mut params = *params;
     if running {
         params.heel_strike_speed_fraction = params.running_speed_fraction;

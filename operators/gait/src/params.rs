@@ -675,11 +675,7 @@ pub(crate) fn detect(landmarks: &Landmarks, params: &GaitParams) -> Result<Detec
         })
         .collect();
     let rejected_events = proposed_count - events.len();
-    let method = match params.events.method {
-        crate::EventMethod::Auto if running => crate::EventMethod::Velocity,
-        crate::EventMethod::Auto => crate::EventMethod::Coordinate,
-        m => m,
-    };
+    let method = params.events.method.for_clip(running);
     if tracks.heel_source == HeelSource::HeelMarker {
         let edges = if method == crate::EventMethod::Coordinate {
             let separation = params.events.min_separation_secs * rate;

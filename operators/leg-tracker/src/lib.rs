@@ -43,7 +43,7 @@ use trigait_kinect::Intrinsics;
 use trigait_skeleton::{Joint, JointSample, TrackingState};
 
 use legs::{BAND_M, Band, FitInput, FloorFrame, LegFit, LegPose, fit_leg, place_foot};
-pub use segment::Component;
+pub use segment::{Component, mask_iou};
 
 /// The depth camera as the tracker sees it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -283,3 +283,20 @@ impl Component {
             && (params.min_person_area_m2..params.max_person_area_m2).contains(&self.area_m2)
     }
 }
+
+/// Intersection over union of two person masks, pixel by pixel (an empty `found` is no pixel;
+/// two empty masks score 0).
+#[must_use]
+pub fn mask_iou(found: &[bool], truth: &[bool]) -> f64 {
+    let (mut inter, mut union) = (0_usize, 0_usize);
+    for (i, t) in truth.iter().enumerate() {
+        let f = found.get(i).copied().unwrap_or(false);
+        inter += usize::from(f && *t);
+        union += usize::from(f || *t);
+    }
+    if union == 0 {
+        0.0
+    } else {
+        inter as f64 / union as f64
+    }
+}

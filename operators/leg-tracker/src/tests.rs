@@ -338,44 +338,35 @@ fn real_frame_against_the_sdk() {
     let mut tracker = recorded_frame_tracker();
     let out = tracker.track(&frame);
     assert_eq!(out.status, Status::Tracking, "{out:?}");
-    let (mut inter, mut union) = (0, 0);
-    for (a, b) in out.person_mask.iter().zip(truth.as_slice()) {
-        inter += usize::from(*a && *b);
-        union += usize::from(*a || *b);
-    }
-    let iou = inter as f64 / union as f64;
+    let iou = mask_iou(&out.person_mask, truth.as_slice());
     // The same over the pixels more than 5 cm above the tracker's floor (or without depth):
     // what the two masks disagree on besides the floor.
     let floor = out.floor.unwrap();
     let camera = tracker.config().camera;
-    let (mut inter_up, mut union_up, mut floor_only) = (0, 0, 0);
-    for (i, (a, b)) in out.person_mask.iter().zip(truth.as_slice()).enumerate() {
-        let z = f64::from(frame.as_mm()[i]) * 1e-3;
-        let (rx, ry) = camera.ray(i % trigait_depth::WIDTH, i / trigait_depth::WIDTH);
-        if z > 0.0 && floor.height_m(&Point3::new(rx * z, ry * z, z)) < 0.05 {
-            floor_only += usize::from(*b && !*a);
-            continue;
-        }
-        inter_up += usize::from(*a && *b);
-        union_up += usize::from(*a || *b);
-    }
-    let iou_up = inter_up as f64 / union_up as f64;
+    let near_floor: Vec<bool> = (0..trigait_depth::PIXELS)
+        .map(|i| {
+            let z = f64::from(frame.as_mm()[i]) * 1e-3;
+            let (rx, ry) = camera.ray(i % trigait_depth::WIDTH, i / trigait_depth::WIDTH);
+            z > 0.0 && floor.height_m(&Point3::new(rx * z, ry * z, z)) < 0.05
+        })
+        .collect();
+    let above =
+        |m: &[bool]| -> Vec<bool> { m.iter().zip(&near_floor).map(|(m, f)| *m && !f).collect() };
+    let iou_up = mask_iou(&above(&out.person_mask), &above(truth.as_slice()));
+    let found_and_truth = || out.person_mask.iter().zip(truth.as_slice());
+    let floor_only = found_and_truth()
+        .zip(&near_floor)
+        .filter(|((a, b), f)| **b && !**a && **f)
+        .count();
     eprintln!(
         "IoU above the floor {iou_up:.3}; SDK person pixels within 5 cm of the floor that the tracker leaves out: {floor_only} of {}",
-        union - inter
+        found_and_truth().filter(|(a, b)| a != b).count()
     );
     assert!(iou_up >= 0.98, "IoU above the floor {iou_up:.3}");
     // The same against the SDK mask's person alone: its largest 8-connected blob, without the
     // specks of floor scattered over the image's bottom.
     let person = largest_blob(truth.as_slice());
-    let (inter_p, union_p) = out
-        .person_mask
-        .iter()
-        .zip(&person)
-        .fold((0, 0), |(i, u), (a, b)| {
-            (i + usize::from(*a && *b), u + usize::from(*a || *b))
-        });
-    let iou_person = inter_p as f64 / union_p as f64;
+    let iou_person = mask_iou(&out.person_mask, &person);
     eprintln!(
         "IoU against the SDK mask's largest blob ({} of its {} pixels) {iou_person:.3}",
         person.iter().filter(|p| **p).count(),

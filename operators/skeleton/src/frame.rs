@@ -14,6 +14,15 @@ pub struct JointSample {
     pub state: TrackingState,
 }
 
+impl JointSample {
+    /// Whether the sample is a measurement (`Tracked` or `Inferred`): a `NotTracked` joint sits
+    /// wherever the body tracker's model left it.
+    #[must_use]
+    pub fn is_measured(&self) -> bool {
+        self.state != TrackingState::NotTracked
+    }
+}
+
 /// Everything one sensor reports about one body in one depth frame: what crosses the
 /// `kinect-source → sync` edge of the dataflow.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -34,6 +43,6 @@ impl SkeletonFrame {
     pub fn joint(&self, joint: Joint) -> Option<&JointSample> {
         self.joints
             .iter()
-            .find(|s| s.joint == joint && s.state != TrackingState::NotTracked)
+            .find(|s| s.joint == joint && s.is_measured())
     }
 }

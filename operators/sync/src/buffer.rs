@@ -777,7 +777,7 @@ fn usable(frame: &SkeletonFrame) -> impl Iterator<Item = JointSample> + '_ {
     let mut joints: Vec<JointSample> = frame
         .joints
         .iter()
-        .filter(|s| s.state != TrackingState::NotTracked && seen.insert(s.joint))
+        .filter(|s| s.is_measured() && seen.insert(s.joint))
         .copied()
         .collect();
     joints.sort_by_key(|s| s.joint);
@@ -818,7 +818,7 @@ fn resample(frames: &VecDeque<TimedFrame>, t: i64, params: &SyncParams) -> Optio
     let joint_ids: BTreeSet<Joint> = near
         .iter()
         .flat_map(|f| f.frame.joints.iter())
-        .filter(|s| s.state != TrackingState::NotTracked)
+        .filter(|s| s.is_measured())
         .map(|s| s.joint)
         .collect();
 
