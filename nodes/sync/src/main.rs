@@ -5,6 +5,7 @@
 //! [`config`].
 
 mod config;
+mod order;
 #[cfg(test)]
 mod tests;
 
@@ -223,7 +224,8 @@ pub fn run(
         routes,
     };
     let mut stopped = false;
-    while let Some(event) = events.recv() {
+    let mut in_order = order::InputsFirst::dora();
+    while let Some(event) = in_order.next(&mut events) {
         trigait_node_log::warn_drops(&mut events);
         match event {
             Event::Input { id, metadata, data } => {

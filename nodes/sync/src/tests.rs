@@ -419,3 +419,59 @@ fn ntp_replies_and_frames_in_aligned_sets_out() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The sources' last frames and their `InputClosed` come at the same instant, and `sync` ends
+/// its run on the last close: every frame is still taken in (none is synchronised here, so
+/// each is counted as dropped by the buffer) and timed. dora's testing daemon hands the events
+/// over one at a time, in order, so the scheduler's reordering of a real run (the closes
+/// first) is tested in `order`.
+#[test]
+fn frames_queued_before_the_closes_are_taken_in() {
+    use trigait_schema::{FrameTiming, Message, SkeletonFrameMessage, ports};
+    use trigait_skeleton::SkeletonFrame;
+
+    const FRAMES: u64 = 20;
+    let dir = scratch_dir("sync-closes");
+    let mut events = Vec::new();
+    for seq in 0..FRAMES {
+        for id in ["k1", "k2"] {
+            let frame = SkeletonFrame {
+                sensor_id: id.to_owned(),
+                seq,
+                local_stamp_nanos: 1_000_000_000 + seq as i64 * 33_333_333,
+                joints: Vec::new(),
+            };
+            events.push(input_event(
+                &dir,
+                &format!("frame_{id}_{seq}"),
+                0.05,
+                &format!("{}{id}", ports::FRAME_INPUT_PREFIX),
+                SkeletonFrameMessage::from(frame).encode().unwrap(),
+            ));
+        }
+    }
+    for id in ["k1", "k2"] {
+        events.push(serde_json::json!(
+            {"time_offset_secs": 0.05, "type": "InputClosed",
+             "id": format!("{}{id}", ports::FRAME_INPUT_PREFIX)}
+        ));
+    }
+    let (node, stream, mut rx) = init_node(
+        serde_json::json!({"id": "sync", "events": events}),
+        TestingOptions::default(),
+    );
+    let counters = crate::run(
+        Config::from_lookup(lookup(&[])).unwrap(),
+        vec!["k1".into(), "k2".into()],
+        crate::NtpRoutes::Broadcast,
+        node,
+        stream,
+    )
+    .unwrap();
+    assert_eq!(counters.frames_dropped, 2 * FRAMES, "{counters:?}");
+    let timings = output_arrays(&drain_outputs(&mut rx), ports::FRAME_TIMING)
+        .iter()
+        .flat_map(|a| FrameTiming::decode_many(a.as_ref()).unwrap())
+        .count();
+    assert_eq!(timings as u64, 2 * FRAMES);
+}
