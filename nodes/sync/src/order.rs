@@ -60,10 +60,6 @@ impl<T> InputsFirst<T> {
             .buffered()
             .into_iter()
             .partition(|e| (self.is_input)(e));
-        if inputs.is_empty() {
-            self.pending.extend(controls);
-            return Some(event);
-        }
         self.pending.extend(inputs);
         self.pending.push_back(event);
         self.pending.extend(controls);

@@ -474,4 +474,5 @@ fn frames_queued_before_the_closes_are_taken_in() {
         .flat_map(|a| FrameTiming::decode_many(a.as_ref()).unwrap())
         .count();
     assert_eq!(timings as u64, 2 * FRAMES);
+    std::fs::remove_dir_all(&dir).ok();
 }
