@@ -29,14 +29,15 @@ fn rms(v: &[f64]) -> f64 {
 /// fused plain and robust; the first second (the tracker still learning the lengths) is not
 /// scored.
 ///
-/// Measured: the tracker's own error by state, RMS tracked 4.9–7.0 cm, inferred 17–19 cm (the
-/// noise model weighs inferred joints ×3); fused RMSE 0.056 m plain, 0.054 m robust (hips 4 cm,
-/// knees 3.5 cm, ankles 7–9 cm, feet 4–6 cm) — against 0.02 m for the skeleton-level graph; 0.066
-/// m before the walking direction was read only off hips seen, 0.055–0.056 m while the joints
-/// the tracker marks `NotTracked` still went into the fusion (the graph's `sync` drops them).
-/// The gap to the skeleton graph is the tracker's ankles and feet, not the host, and most of it
-/// is in the 0.35 s after each of the lap's instant turns: there 8 % of the joints, RMS
-/// 0.14–0.15 m; elsewhere 0.038 m plain, 0.034 m robust. Pinned: robust no worse than plain,
+/// Measured: the tracker's own error by state, RMS tracked 5.1–7.5 cm, inferred 14–16 cm (the
+/// noise model weighs inferred joints ×3); fused RMSE 0.066 m plain, 0.064 m robust (hips 4.4–4.6
+/// cm, knees 3.3–3.6 cm, ankles 7–10 cm, feet 6–9 cm) — against 0.02 m for the skeleton-level
+/// graph. The gap to the skeleton graph is the tracker's ankles and feet, not the host, and most
+/// of it is in the 0.35 s after each of the lap's instant turns: there 9 % of the joints, RMS
+/// 0.19 m; elsewhere 0.035 m plain, 0.030 m robust. Before cut-off lower legs were taken into
+/// the person's mask: 0.056 / 0.054 m in all, 0.14–0.15 m after the turns, 0.038 / 0.034 m
+/// elsewhere (the lap's instant spin, which no body makes, came out worse; the walk between the
+/// turns better). Pinned: robust no worse than plain,
 /// hips and knees ≤ 6 cm, ankles ≤ 12 cm, feet ≤ 10 cm, all ≤ 0.07 m, away from the turns
 /// ≤ 0.045 m.
 #[test]

@@ -10,7 +10,9 @@
 //!    the lower image rows, held once found ([`segment`]).
 //! 2. **Person.** Floor pixels and pixels above head height are dropped; the rest form connected
 //!    components continuous in depth. Person-like components (standing on the floor, head
-//!    height, body-sized) are counted; the one nearest to the last position is followed.
+//!    height, body-sized) are counted; the one nearest to the last position is followed, with
+//!    the pieces of it that occlusion cut off (a lower leg seen past the other leg, its knee
+//!    hidden), each of which goes whole to one leg.
 //! 3. **Legs.** The model is two chains hip → knee → ankle of straight segments; each point
 //!    below the hip goes to the leg whose predicted axis is nearer, so the legs keep their
 //!    identities when they cross ([`legs`]). Hip height is a share of the measured stature;
@@ -20,7 +22,8 @@
 //!    stature) and places the knee and ankle at those distances along the fitted lines, an
 //!    ankle never below the floor. Where the lower legs pass each other they may land on the wrong chains; the
 //!    exchange that makes thigh and shank lines meet at the knees is tried below the predicted
-//!    knees and below the height where the predicted axes cross. The `Foot` joint (second
+//!    knees and below the height where the predicted axes cross. A hip whose thigh is not seen
+//!    moves with the seen one. The `Foot` joint (second
 //!    metatarsal head) is an anthropometric distance ahead of the ankle along the walking
 //!    direction, pitched towards the leg's visible forefoot.
 //! 4. **Sides.** Which chain is the left leg follows from the walking direction (the hips'
@@ -511,11 +514,26 @@ impl LegTracker {
             return out;
         };
         self.last_centroid = Some(person.centroid);
-        let mask: Vec<bool> = labels.iter().map(|&l| l == person.label).collect();
+        let limbs = segment::cut_off_limbs(&labels, &cloud, &comps, &person, &floor, &params);
+        // Per pixel: 0 off the person, 1 on its component, 2 + k on its k-th cut-off limb.
+        let piece: Vec<u8> = labels
+            .iter()
+            .map(|&l| {
+                if l == person.label {
+                    1
+                } else {
+                    limbs
+                        .iter()
+                        .position(|&m| m == l)
+                        .map_or(0, |k| u8::try_from(k + 2).unwrap_or(u8::MAX))
+                }
+            })
+            .collect();
+        let mask: Vec<bool> = piece.iter().map(|&p| p > 0).collect();
         let mut out = TrackedFrame::empty(Status::Tracking, cloud.valid, Some(floor));
         out.people = people.len();
-        out.person_pixels = person.pixels;
-        out.person_share = person.pixels as f64 / cloud.valid as f64;
+        out.person_pixels = mask.iter().filter(|m| **m).count();
+        out.person_share = out.person_pixels as f64 / cloud.valid as f64;
         self.frames += 1;
         // Stature: the head must be in view to measure it.
         let top_in_view = !mask[..WIDTH * 2].iter().any(|&m| m);
@@ -527,7 +545,7 @@ impl LegTracker {
             None => median(&mut self.statures.clone()),
         };
         if let Some(stature) = stature {
-            self.fit_legs(&cloud, &mask, &floor, stature, &mut out);
+            self.fit_legs(&cloud, &piece, &floor, stature, &mut out);
         }
         out.stature_m = stature;
         out.segment_lengths_m = self.held.map(|h| h.1).or_else(|| {
@@ -568,7 +586,7 @@ impl LegTracker {
     fn fit_legs(
         &mut self,
         cloud: &segment::Cloud,
-        mask: &[bool],
+        piece: &[u8],
         floor: &Floor,
         stature: f64,
         out: &mut TrackedFrame,
@@ -578,8 +596,10 @@ impl LegTracker {
         let n_bands = (hip_h / BAND_M).ceil() as usize + 1;
         // Leg points: horizontal coordinates and heights.
         let mut pts: Vec<(Vector2<f64>, f64)> = Vec::with_capacity(8000);
-        for (i, &m) in mask.iter().enumerate() {
-            if !m {
+        // The cut-off limb each point is on (0: the person's component).
+        let mut limb_of: Vec<u8> = Vec::with_capacity(8000);
+        for (i, &m) in piece.iter().enumerate() {
+            if m == 0 {
                 continue;
             }
             let h = f64::from(cloud.height[i]);
@@ -588,6 +608,7 @@ impl LegTracker {
             }
             let p = cloud.points[i].coords.cast::<f64>();
             pts.push((Vector2::new(ff.e1.dot(&p), ff.e2.dot(&p)), h));
+            limb_of.push(m - 1);
         }
         if pts.len() < 50 {
             return self.coast(&ff, out);
@@ -621,8 +642,25 @@ impl LegTracker {
         ];
         // Each leg's points low enough to be its foot, for the `Foot` joint.
         let mut low: [Vec<(Vector2<f64>, f64)>; 2] = [Vec::new(), Vec::new()];
-        for (p, h) in &pts {
-            if let Some(k) = assign(p, *h) {
+        // A cut-off limb is one leg's: all of it goes to the chain most of its points go to
+        // (point by point, a limb passing the other leg's predicted axis would be cut in two).
+        let mut votes =
+            vec![[0_usize; 2]; usize::from(limb_of.iter().copied().max().unwrap_or(0)) + 1];
+        for ((p, h), &l) in pts.iter().zip(&limb_of) {
+            if l > 0
+                && let Some(k) = assign(p, *h)
+            {
+                votes[usize::from(l)][k] += 1;
+            }
+        }
+        for ((p, h), &l) in pts.iter().zip(&limb_of) {
+            let chain = if l == 0 {
+                assign(p, *h)
+            } else {
+                let [a, b] = votes[usize::from(l)];
+                (a + b > 0).then_some(usize::from(b > a))
+            };
+            if let Some(k) = chain {
                 let b = ((h / BAND_M).floor().max(0.0) as usize).min(n_bands - 1);
                 bands[k][b].add(p, *h);
                 if *h < FOOT_REGION_M {
@@ -749,6 +787,23 @@ impl LegTracker {
                 }
             }
         }
+        // A hip is placed on its thigh's line: with the thigh unseen, that line is the shank's
+        // or another leg's, and the hip may land anywhere (a hand's breadth across, enough to
+        // put the sides the wrong way round). It moves with the pelvis instead, by the seen
+        // hip's step, as an unseen leg does below.
+        let share = self.config.tracked_share;
+        if let Some(old) = &self.legs {
+            let thigh_seen = |f: &Option<LegFit>| f.is_some_and(|f| f.thigh_seen >= share);
+            for k in 0..2 {
+                if !thigh_seen(&fits[k])
+                    && thigh_seen(&fits[1 - k])
+                    && let Some(seen) = fits[1 - k]
+                    && let Some(f) = fits[k].as_mut()
+                {
+                    f.pose.hip = old[k].pose.hip + (seen.pose.hip - old[1 - k].pose.hip);
+                }
+            }
+        }
         // Update the tracks. An unseen leg moves with the pelvis (the seen hip's step): the
         // pelvis is rigid, and a leg hidden behind the other is carried along by the body.
         let tracks = match (self.legs.take(), &fits) {
@@ -804,7 +859,6 @@ impl LegTracker {
             self.legs = Some(tracks);
             return;
         };
-        let share = self.config.tracked_share;
         for (k, (hip_j, knee_j, ankle_j, foot_j)) in [
             (
                 Joint::HipLeft,

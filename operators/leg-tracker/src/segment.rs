@@ -7,7 +7,8 @@
 //! the Kinect's noise plus the surface slope between two pixels separates objects). A component
 //! is person-like when it stands on the floor, reaches head height and is about as wide as a
 //! body; among those the tracker follows the one nearest to where the person was (the largest
-//! at the first frame).
+//! at the first frame), together with the small pieces beside it that its own occlusion cut off
+//! (`cut_off_limbs`).
 
 use nalgebra::{Point3, Vector3};
 use trigait_depth::plane::{RansacParams, fit_plane_ransac};
@@ -282,6 +283,80 @@ impl Component {
             && self.radius_m < params.max_person_radius_m
             && (params.min_person_area_m2..params.max_person_area_m2).contains(&self.area_m2)
     }
+}
+
+/// A cut-off limb stays below this share of the person's top height (the knee is at 0.285 H,
+/// Winter 2009; a piece may hold the lower thigh too).
+const LIMB_TOP_SHARE: f64 = 0.45;
+/// A cut-off limb reaches above this, metres: a lower leg does, while a piece lying lower is a
+/// shoe's sole or clutter on the floor, as likely someone else's as the person's.
+const LIMB_MIN_TOP_M: f64 = 0.15;
+/// Largest visible area of a cut-off limb, m² (a shank and foot seen from the side ≈ 0.06 m²).
+const MAX_LIMB_AREA_M2: f64 = 0.15;
+/// A limb touches the person in the image within this many pixels.
+const LIMB_TOUCH_PX: usize = 2;
+
+/// Labels of the components that are the `person`'s limbs cut off from it by occlusion.
+///
+/// A leg seen past the other leg may show its lower part only, its knee hidden behind the
+/// near leg: the depth jump at the near leg's edge then separates it from the person's
+/// component, and the person's mask loses a shank and foot (in the simulated walks, for up to
+/// 15 frames running). Such a piece is not person-like itself, stands on the floor, stays below
+/// [`LIMB_TOP_SHARE`] of the person's height and above [`LIMB_MIN_TOP_M`], is smaller than
+/// [`MAX_LIMB_AREA_M2`], lies within the person's radius, and touches the person's pixels in
+/// the image where it lies behind them (the person hides its connection).
+#[allow(clippy::needless_range_loop)] // pixel indices address several parallel images
+pub(crate) fn cut_off_limbs(
+    labels: &[u32],
+    cloud: &Cloud,
+    comps: &[Component],
+    person: &Component,
+    floor: &Floor,
+    params: &crate::SegmentParams,
+) -> Vec<u32> {
+    let up = floor.up_in_kinect;
+    let horizontal = |d: Vector3<f64>| (d - up * up.dot(&d)).norm();
+    let candidates: Vec<u32> = comps
+        .iter()
+        .filter(|c| {
+            c.label != person.label
+                && !c.person_like(params)
+                && c.height_range_m.0 < params.max_foot_height_m
+                && c.height_range_m.1 < LIMB_TOP_SHARE * person.height_range_m.1
+                && c.height_range_m.1 > LIMB_MIN_TOP_M
+                && c.area_m2 < MAX_LIMB_AREA_M2
+                && horizontal(c.centroid - person.centroid) < params.max_person_radius_m
+        })
+        .map(|c| c.label)
+        .collect();
+    if candidates.is_empty() {
+        return candidates;
+    }
+    let mut touching = Vec::new();
+    let r = LIMB_TOUCH_PX;
+    for v in 0..HEIGHT {
+        for u in 0..WIDTH {
+            let i = v * WIDTH + u;
+            if labels[i] != person.label {
+                continue;
+            }
+            let z = cloud.points[i].z;
+            for vv in v.saturating_sub(r)..(v + r + 1).min(HEIGHT) {
+                for uu in u.saturating_sub(r)..(u + r + 1).min(WIDTH) {
+                    let j = vv * WIDTH + uu;
+                    let l = labels[j];
+                    if l != person.label
+                        && candidates.contains(&l)
+                        && !touching.contains(&l)
+                        && cloud.points[j].z > z
+                    {
+                        touching.push(l);
+                    }
+                }
+            }
+        }
+    }
+    touching
 }
 
 /// Intersection over union of two person masks, pixel by pixel (an empty `found` is no pixel;
