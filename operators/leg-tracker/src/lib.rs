@@ -515,7 +515,8 @@ impl LegTracker {
         };
         self.last_centroid = Some(person.centroid);
         let limbs = segment::cut_off_limbs(&labels, &cloud, &comps, &person, &floor, &params);
-        // Per pixel: 0 off the person, 1 on its component, 2 + k on its k-th cut-off limb.
+        // Per pixel: 0 off the person, 1 on its component, 2 + k on its k-th cut-off limb (any
+        // beyond the 253rd share the last id).
         let piece: Vec<u8> = labels
             .iter()
             .map(|&l| {
@@ -654,11 +655,11 @@ impl LegTracker {
             }
         }
         for ((p, h), &l) in pts.iter().zip(&limb_of) {
-            let chain = if l == 0 {
+            let [a, b] = votes[usize::from(l)];
+            let chain = if l == 0 || a == b {
                 assign(p, *h)
             } else {
-                let [a, b] = votes[usize::from(l)];
-                (a + b > 0).then_some(usize::from(b > a))
+                Some(usize::from(b > a))
             };
             if let Some(k) = chain {
                 let b = ((h / BAND_M).floor().max(0.0) as usize).min(n_bands - 1);
@@ -790,7 +791,9 @@ impl LegTracker {
         // A hip is placed on its thigh's line: with the thigh unseen, that line is the shank's
         // or another leg's, and the hip may land anywhere (a hand's breadth across, enough to
         // put the sides the wrong way round). It moves with the pelvis instead, by the seen
-        // hip's step, as an unseen leg does below.
+        // hip's step, as an unseen leg does below. The knee and ankle stay where the seen
+        // shank put them (the hip-knee distance is then not the held thigh length; both
+        // joints are reported inferred).
         let share = self.config.tracked_share;
         if let Some(old) = &self.legs {
             let thigh_seen = |f: &Option<LegFit>| f.is_some_and(|f| f.thigh_seen >= share);

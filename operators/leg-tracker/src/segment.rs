@@ -300,11 +300,12 @@ const LIMB_TOUCH_PX: usize = 2;
 ///
 /// A leg seen past the other leg may show its lower part only, its knee hidden behind the
 /// near leg: the depth jump at the near leg's edge then separates it from the person's
-/// component, and the person's mask loses a shank and foot (in the simulated walks, for up to
-/// 15 frames running). Such a piece is not person-like itself, stands on the floor, stays below
-/// [`LIMB_TOP_SHARE`] of the person's height and above [`LIMB_MIN_TOP_M`], is smaller than
-/// [`MAX_LIMB_AREA_M2`], lies within the person's radius, and touches the person's pixels in
-/// the image where it lies behind them (the person hides its connection).
+/// component, and the person's mask loses a shank and foot. Such a piece (of at least
+/// `min_pixels`, as every component) is not person-like itself, stands on the floor, stays
+/// below [`LIMB_TOP_SHARE`] of the person's height and reaches above [`LIMB_MIN_TOP_M`], is
+/// smaller than [`MAX_LIMB_AREA_M2`], has its centroid within `max_person_radius_m` of the
+/// person's (horizontally), and touches the person's pixels in the image where it lies behind
+/// them (the person hides its connection).
 #[allow(clippy::needless_range_loop)] // pixel indices address several parallel images
 pub(crate) fn cut_off_limbs(
     labels: &[u32],
@@ -316,7 +317,7 @@ pub(crate) fn cut_off_limbs(
 ) -> Vec<u32> {
     let up = floor.up_in_kinect;
     let horizontal = |d: Vector3<f64>| (d - up * up.dot(&d)).norm();
-    let candidates: Vec<u32> = comps
+    let mut candidates: Vec<u32> = comps
         .iter()
         .filter(|c| {
             c.label != person.label
@@ -329,31 +330,27 @@ pub(crate) fn cut_off_limbs(
         })
         .map(|c| c.label)
         .collect();
-    if candidates.is_empty() {
-        return candidates;
-    }
+    // The pieces are small: look around their pixels for the person's, nearer the camera.
     let mut touching = Vec::new();
     let r = LIMB_TOUCH_PX;
-    for v in 0..HEIGHT {
-        for u in 0..WIDTH {
-            let i = v * WIDTH + u;
-            if labels[i] != person.label {
-                continue;
-            }
-            let z = cloud.points[i].z;
-            for vv in v.saturating_sub(r)..(v + r + 1).min(HEIGHT) {
-                for uu in u.saturating_sub(r)..(u + r + 1).min(WIDTH) {
-                    let j = vv * WIDTH + uu;
-                    let l = labels[j];
-                    if l != person.label
-                        && candidates.contains(&l)
-                        && !touching.contains(&l)
-                        && cloud.points[j].z > z
-                    {
-                        touching.push(l);
-                    }
-                }
-            }
+    for j in 0..PIXELS {
+        if candidates.is_empty() {
+            break;
+        }
+        let l = labels[j];
+        let Some(c) = candidates.iter().position(|&c| c == l) else {
+            continue;
+        };
+        let (u, v) = (j % WIDTH, j / WIDTH);
+        let z = cloud.points[j].z;
+        let hidden = (v.saturating_sub(r)..(v + r + 1).min(HEIGHT)).any(|vv| {
+            (u.saturating_sub(r)..(u + r + 1).min(WIDTH)).any(|uu| {
+                let i = vv * WIDTH + uu;
+                labels[i] == person.label && cloud.points[i].z < z
+            })
+        });
+        if hidden {
+            touching.push(candidates.swap_remove(c));
         }
     }
     touching

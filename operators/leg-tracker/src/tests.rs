@@ -273,10 +273,13 @@ fn a_lower_leg_seen_past_the_other_leg_stays_in_the_mask() {
             .unwrap();
         let out = tracker.track(&frame.depth);
         if f >= 119 {
-            for (l, m) in frame.labels.iter().zip(&out.person_mask) {
-                rendered += usize::from(*l == shank);
-                in_mask += usize::from(*l == shank && *m);
-            }
+            rendered += frame.labels.iter().filter(|l| **l == shank).count();
+            in_mask += frame
+                .labels
+                .iter()
+                .zip(&out.person_mask)
+                .filter(|(l, m)| **l == shank && **m)
+                .count();
         }
     }
     eprintln!("left shank pixels in the person mask: {in_mask} of {rendered}");
