@@ -800,10 +800,10 @@ impl LegTracker {
             for k in 0..2 {
                 if !thigh_seen(&fits[k])
                     && thigh_seen(&fits[1 - k])
-                    && let Some(seen) = fits[1 - k]
+                    && let Some(step) = pelvis_step(old, &fits, k)
                     && let Some(f) = fits[k].as_mut()
                 {
-                    f.pose.hip = old[k].pose.hip + (seen.pose.hip - old[1 - k].pose.hip);
+                    f.pose.hip = old[k].pose.hip + step;
                 }
             }
         }
@@ -811,9 +811,6 @@ impl LegTracker {
         // pelvis is rigid, and a leg hidden behind the other is carried along by the body.
         let tracks = match (self.legs.take(), &fits) {
             (Some(old), _) => {
-                let carried = |k: usize| -> Vector3<f64> {
-                    fits[1 - k].map_or_else(Vector3::zeros, |f| f.pose.hip - old[1 - k].pose.hip)
-                };
                 let upd = |k: usize, t: &LegTrack| match &fits[k] {
                     Some(f) => Some(LegTrack {
                         previous: t.pose,
@@ -821,7 +818,7 @@ impl LegTracker {
                         missed: 0,
                     }),
                     None if t.missed < self.config.max_inferred_frames => {
-                        let step = carried(k);
+                        let step = pelvis_step(&old, &fits, k).unwrap_or_else(Vector3::zeros);
                         Some(LegTrack {
                             previous: t.pose,
                             pose: LegPose {
@@ -1029,6 +1026,12 @@ impl LegTracker {
             self.left = Some(if d > 0.0 { 0 } else { 1 });
         }
     }
+}
+
+/// How far the pelvis moved this frame as chain `k` would be carried by it: the other chain's
+/// hip step from its track to its fit, if it was fitted (the pelvis is rigid).
+fn pelvis_step(old: &[LegTrack; 2], fits: &[Option<LegFit>; 2], k: usize) -> Option<Vector3<f64>> {
+    fits[1 - k].map(|f| f.pose.hip - old[1 - k].pose.hip)
 }
 
 /// Two-means of the horizontal positions of the points between heights `lo` and `hi`, started

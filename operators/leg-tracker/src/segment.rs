@@ -306,7 +306,6 @@ const LIMB_TOUCH_PX: usize = 2;
 /// smaller than [`MAX_LIMB_AREA_M2`], has its centroid within `max_person_radius_m` of the
 /// person's (horizontally), and touches the person's pixels in the image where it lies behind
 /// them (the person hides its connection).
-#[allow(clippy::needless_range_loop)] // pixel indices address several parallel images
 pub(crate) fn cut_off_limbs(
     labels: &[u32],
     cloud: &Cloud,
