@@ -17,7 +17,9 @@
 //!    below the hip goes to the leg whose predicted axis is nearer, so the legs keep their
 //!    identities when they cross ([`legs`]). Hip height is a share of the measured stature;
 //!    the knee is the breakpoint of a two-line fit to the limb's axis; the ankle sits above the
-//!    sole. During the first frames the tracker measures the stature and the thigh and shank
+//!    sole of a foot standing on the floor (lowest band at the floor, the ankle still; for a
+//!    person standing still, kept down while the sole stays) and hangs at the shank length
+//!    otherwise. During the first frames the tracker measures the stature and the thigh and shank
 //!    lengths; then it holds them (too few measured: halves of the standing leg from the
 //!    stature) and places the knee and ankle at those distances along the fitted lines, an
 //!    ankle never below the floor. Where the lower legs pass each other they may land on the wrong chains; the
@@ -355,6 +357,15 @@ type Assign = dyn Fn(&Vector2<f64>, f64) -> Option<usize>;
 /// An ankle that moved less than this since the last frame stands (0.45 m/s at 30 Hz), metres.
 const STILL_ANKLE_M: f64 = 0.015;
 
+/// Hips and knees that all moved less than this since the last frame belong to a person
+/// standing still (0.15 m/s at 30 Hz, slower than anyone walks), metres.
+const STILL_BODY_M: f64 = 0.01;
+
+/// A standing foot's sole (the centre of its lowest band seen) that moved less than this since
+/// the last frame has not moved: the band's points go to the nearer predicted leg axis, which
+/// shifts the centre by up to 2 cm on an unchanged image, metres.
+const STILL_SOLE_M: f64 = 0.03;
+
 /// How much better (summed gap between thigh and shank lines at the knees, metres) the
 /// exchanged lower legs must join up to be taken.
 const SWAP_MARGIN_M: f64 = 0.04;
@@ -376,6 +387,9 @@ struct LegTrack {
     previous: LegPose,
     /// Frames since the last fit.
     missed: usize,
+    /// Where the lowest band seen was (horizontal) at the last fit, and whether that foot was
+    /// taken to stand on the floor.
+    sole: Option<(Vector2<f64>, bool)>,
 }
 
 /// Follows one person's legs through a sensor's depth frames.
@@ -695,17 +709,33 @@ impl LegTracker {
         let fit_both = |bands: &[Vec<Band>; 2]| {
             let mut fits: [Option<LegFit>; 2] = [None, None];
             let mut on_floor_legs = [false; 2];
+            let mut soles: [Option<Vector2<f64>>; 2] = [None, None];
             for k in 0..2 {
                 let Some(sole_band) = bands[k].iter().position(|b| b.n >= min_pts) else {
                     continue;
                 };
                 // The floor cut hides the lowest centimetres: a foot whose lowest band sits
                 // just above the cut stands on the floor ...
-                let lowest = bands[k][sole_band].centre(min_pts).map_or(0.0, |c| c.1);
-                // ... and a foot in stance is still (a swing foot skims the floor toes first).
-                let still = legs_now
-                    .as_ref()
-                    .is_none_or(|l| (l[k].pose.ankle - l[k].previous.ankle).norm() < STILL_ANKLE_M);
+                let sole = bands[k][sole_band].centre(min_pts);
+                let lowest = sole.map_or(0.0, |c| c.1);
+                soles[k] = sole.map(|c| c.0);
+                // ... and a foot in stance is still (a swing foot skims the floor toes first):
+                // its reported ankle stood still, or, for a person standing still (hips and
+                // knees still), it stood on the floor and its sole has not moved since. The
+                // second keeps a foot down whose ankle the decision itself moved (from hung
+                // at the shank length to over the floor), which would otherwise flip it back
+                // up the next frame, and on, every few frames.
+                let still = legs_now.as_ref().is_none_or(|l| {
+                    let body_still = l.iter().all(|t| {
+                        (t.pose.hip - t.previous.hip).norm() < STILL_BODY_M
+                            && (t.pose.knee - t.previous.knee).norm() < STILL_BODY_M
+                    });
+                    (l[k].pose.ankle - l[k].previous.ankle).norm() < STILL_ANKLE_M
+                        || body_still
+                            && l[k].sole.zip(soles[k]).is_some_and(|((was, down), now)| {
+                                down && (now - was).norm() < STILL_SOLE_M
+                            })
+                });
                 let on_floor = lowest < params_floor_tol + BAND_M && still;
                 let sole_h = if on_floor { 0.0 } else { lowest - 0.5 * BAND_M };
                 // Foot: the points below the ankle.
@@ -722,9 +752,9 @@ impl LegTracker {
                 on_floor_legs[k] = on_floor;
                 fits[k] = fit_leg(&ff, &bands[k], sole_h, on_floor, (sum, n), &input);
             }
-            (fits, on_floor_legs)
+            (fits, on_floor_legs, soles)
         };
-        let (mut fits, mut on_floor_legs) = fit_both(&bands);
+        let (mut fits, mut on_floor_legs, mut soles) = fit_both(&bands);
         // Where the legs pass each other the lower legs may have gone to the wrong chains: a
         // leg's thigh and shank lines meet at its knee, a thigh and the other leg's shank do
         // not. Try the lower legs exchanged below the predicted knees and keep what joins up.
@@ -755,17 +785,18 @@ impl LegTracker {
                 let mut swapped = bands.clone();
                 let (lo0, lo1) = swapped.split_at_mut(1);
                 lo0[0][..split].swap_with_slice(&mut lo1[0][..split]);
-                let (alt, alt_floor) = fit_both(&swapped);
+                let (alt, alt_floor, alt_soles) = fit_both(&swapped);
                 if let [Some(c), Some(d)] = &alt
                     && c.knee_gap_m + d.knee_gap_m < best_gap
                 {
                     best_gap = c.knee_gap_m + d.knee_gap_m;
-                    taken = Some((split, alt, alt_floor));
+                    taken = Some((split, alt, alt_floor, alt_soles));
                 }
             }
-            if let Some((split, alt, alt_floor)) = taken {
+            if let Some((split, alt, alt_floor, alt_soles)) = taken {
                 fits = alt;
                 on_floor_legs = alt_floor;
+                soles = alt_soles;
                 let below = split as f64 * BAND_M;
                 let [l0, l1] = &mut low;
                 let (keep0, move0): (Vec<_>, Vec<_>) = l0.iter().partition(|p| p.1 >= below);
@@ -816,6 +847,7 @@ impl LegTracker {
                         previous: t.pose,
                         pose: f.pose,
                         missed: 0,
+                        sole: soles[k].map(|s| (s, on_floor_legs[k])),
                     }),
                     None if t.missed < self.config.max_inferred_frames => {
                         let step = pelvis_step(&old, &fits, k).unwrap_or_else(Vector3::zeros);
@@ -827,6 +859,7 @@ impl LegTracker {
                                 ankle: t.pose.ankle + step,
                             },
                             missed: t.missed + 1,
+                            sole: None,
                         })
                     }
                     None => None,
@@ -836,10 +869,14 @@ impl LegTracker {
                     _ => None,
                 }
             }
-            (None, [Some(a), Some(b)]) => Some([a.pose, b.pose].map(|pose| LegTrack {
-                pose,
-                previous: pose,
-                missed: 0,
+            (None, [Some(a), Some(b)]) => Some([0, 1].map(|k| {
+                let pose = [a.pose, b.pose][k];
+                LegTrack {
+                    pose,
+                    previous: pose,
+                    missed: 0,
+                    sole: soles[k].map(|s| (s, on_floor_legs[k])),
+                }
             })),
             (None, _) => None,
         };

@@ -247,7 +247,7 @@ fn walker_on_the_thesis_rig() {
 }
 
 /// The walker's `Foot` joints (second metatarsal heads): median error per sensor, metres.
-/// Measured 2.6–2.9 cm (8.1–13.6 cm while the foot was the centre of the points below the
+/// Measured 2.5–2.9 cm (8.1–13.6 cm while the foot was the centre of the points below the
 /// ankle).
 const FOOT_MEDIAN_M: f64 = 0.035;
 /// The same, median height error (tracker − truth), metres. Measured +0.4 to +0.9 cm (+2.0 to
@@ -665,15 +665,51 @@ fn spread(frames: &[Vec<(Joint, Point3<f64>)>]) -> (Vec<(Joint, f64)>, usize) {
     (out, incomplete)
 }
 
-/// A person standing still gives still joints once the lengths are learned: the walker's pose
-/// in double support (feet furthest apart) rendered afresh each frame on k1 (new sensor noise
-/// every frame), and the real frame 004378 tracked 90 times over. Each hip, knee and ankle
-/// stays within 2 cm of its median position over the frames after the learning, and on the
-/// rendered body within 5 cm of its truth. What could be wrong: the prediction feeding the
-/// tracker's own jitter back, a knee placed by the breakpoint of a straight leg (which any
-/// breakpoint fits), the lower legs changing chains on an unchanged image, the sides flipping.
+/// A person standing still gives still joints: the real frame 004378 tracked 90 times over.
+/// Each hip, knee and ankle stays within 2 cm of its median position over the frames after the
+/// learning. What could be wrong: the prediction feeding the tracker's own jitter back, the
+/// standing decision moving the ankle it is judged on (the rear foot there cycled every third
+/// frame between over the floor and hung at the shank length, 10.6 cm apart), the lower legs
+/// changing chains on an unchanged image, the sides flipping. Measured: every joint within
+/// 0.0 cm.
 #[test]
-#[ignore = "a still person's joints do not hold still yet: see the README's leg tracker section"]
+fn a_still_person_on_a_real_frame_gives_still_joints() {
+    const FRAMES: usize = 90;
+    let learned = TrackerConfig::default().learning_frames + 5;
+    let Some(depth) = trigait_test_data::shared_file("kinect-v2-depth-person/004378_depth.png")
+    else {
+        return;
+    };
+    let frame = trigait_depth::io::read_depth_png(&depth).unwrap();
+    let mut tracker = recorded_frame_tracker();
+    let mut seen = Vec::new();
+    for f in 0..FRAMES {
+        let out = tracker.track(&frame);
+        if f >= learned {
+            seen.push(
+                out.joints
+                    .iter()
+                    .filter(|j| Joint::LEGS.contains(&j.joint))
+                    .map(|j| (j.joint, j.position_in_kinect))
+                    .collect::<Vec<_>>(),
+            );
+        }
+    }
+    let (real, incomplete) = spread(&seen);
+    eprintln!("frame 004378 {FRAMES} times: spread {real:.3?}, {incomplete} frames incomplete");
+    assert_eq!(incomplete, 0);
+    assert_eq!(real.len(), 6);
+    assert!(real.iter().all(|(_, d)| *d <= 0.02), "{real:.3?}");
+}
+
+/// A rendered person standing still gives still joints: the walker's pose in double support
+/// (feet at least 0.5 m apart) where the pelvis is nearest the middle of k1's view, rendered
+/// afresh each frame (new sensor noise every frame). Each hip, knee and ankle stays within 2 cm
+/// of its median position over the frames after the learning and within 5 cm of its truth.
+/// Not met: the right thigh, half seen, is fitted two ways by turns (hip and knee 3.6 and
+/// 4.6 cm apart), and the left ankle sits 14 cm from its truth.
+#[test]
+#[ignore = "a rendered still person's joints do not hold still yet: see the README's leg tracker section"]
 fn a_still_person_gives_still_joints() {
     const FRAMES: usize = 90;
     let learned = TrackerConfig::default().learning_frames + 5;
@@ -686,9 +722,15 @@ fn a_still_person_gives_still_joints() {
         );
         (l - r).xy().norm()
     };
-    let stance = (0..45)
+    // A person standing at the edge of the image has joints out of view.
+    let off_axis = |t: f64| {
+        let hip = pose.inverse() * clip.position_at(Joint::HipLeft, t).unwrap();
+        (hip.x / hip.z).abs()
+    };
+    let stance = (0..(clip.duration_secs() * RATE_HZ) as u32)
         .map(|k| f64::from(k) / RATE_HZ)
-        .max_by(|a, b| apart(*a).total_cmp(&apart(*b)))
+        .filter(|t| apart(*t) >= 0.5)
+        .min_by(|a, b| off_axis(*a).total_cmp(&off_axis(*b)))
         .unwrap();
     let mut renderer = seeded_renderer(&pose, 11);
     let mut tracker = LegTracker::new(config_for(&pose)).unwrap();
@@ -717,33 +759,7 @@ fn a_still_person_gives_still_joints() {
         "walker standing at {stance:.2} s (feet {:.2} m apart): spread {rendered:.3?}, worst error {worst_truth:.3} m, {incomplete} frames incomplete",
         apart(stance)
     );
-
-    let mut real = Vec::new();
-    let mut real_incomplete = 0;
-    if let Some(depth) = trigait_test_data::shared_file("kinect-v2-depth-person/004378_depth.png") {
-        let frame = trigait_depth::io::read_depth_png(&depth).unwrap();
-        let mut tracker = recorded_frame_tracker();
-        let mut seen = Vec::new();
-        for f in 0..FRAMES {
-            let out = tracker.track(&frame);
-            if f >= learned {
-                seen.push(
-                    out.joints
-                        .iter()
-                        .filter(|j| Joint::LEGS.contains(&j.joint))
-                        .map(|j| (j.joint, j.position_in_kinect))
-                        .collect::<Vec<_>>(),
-                );
-            }
-        }
-        (real, real_incomplete) = spread(&seen);
-        eprintln!(
-            "frame 004378 {FRAMES} times: spread {real:.3?}, {real_incomplete} frames incomplete"
-        );
-    }
     assert_eq!(incomplete, 0);
     assert!(rendered.iter().all(|(_, d)| *d <= 0.02), "{rendered:.3?}");
     assert!(worst_truth <= 0.05, "{worst_truth:.3} m");
-    assert_eq!(real_incomplete, 0);
-    assert!(real.iter().all(|(_, d)| *d <= 0.02), "{real:.3?}");
 }
