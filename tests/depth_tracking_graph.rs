@@ -39,14 +39,15 @@ fn run_for_12s(file: &str, lane: Option<&str>) -> Run {
 /// `depth-tracking.yml` walks), every sensor's frames reaching sync through its tracker, and
 /// sets fused for most of the walking (the walker turns, unseen, 2 of every 7 s).
 ///
-/// The goal is 1.5× the skeleton graph's RMSE. Measured over 25 runs of the current tracker:
-/// 1.14–1.55×, median 1.33×, 24 within the goal (depth graph 0.026–0.031 m against 0.019–0.025
-/// m); 207–224 sets. Runs on one host differ by more than versions of the tracker do (the
-/// tracker itself is deterministic; the host decides which frames are lost and how each set
-/// is timed), so the goal is not asserted: this test pins a bound (≤ 3.5×, so a broken camera convention
-/// or time mapping, metres off, fails it) and prints the ratio. On one line (the walker
-/// spinning 180° between two samples at each end) it was 4.0–5.2×; what is left is the
-/// tracker's ankles (`operators/fusion/tests/tracked_depth.rs`).
+/// The goal is 1.5× the skeleton graph's RMSE. Measured over 38 runs of the current tracker
+/// (29 of them of the version before its standing-still rule, whose output on every walk it
+/// reproduces): 1.12–1.55×, median 1.35×, 35 within the goal (depth graph 0.026–0.033 m
+/// against 0.019–0.025 m); 207–224 sets. The spread between runs on one host (the tracker is
+/// deterministic; the host decides which frames are lost and how each set is timed) is as
+/// wide as the margin to the goal, so the goal is not asserted: this test pins a bound
+/// (≤ 3.5×, so a broken camera convention or time mapping, metres off, fails it) and prints
+/// the ratio. On one line (the walker spinning 180° between two samples at each end) it was
+/// 4.0–5.2×; what is left is the tracker's ankles (`operators/fusion/tests/tracked_depth.rs`).
 #[test]
 fn depth_tracking_rmse_against_the_skeleton_graph() {
     let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());

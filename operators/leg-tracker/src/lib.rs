@@ -358,7 +358,8 @@ type Assign = dyn Fn(&Vector2<f64>, f64) -> Option<usize>;
 const STILL_ANKLE_M: f64 = 0.015;
 
 /// Hips and knees that all moved less than this since the last frame belong to a person
-/// standing still (0.15 m/s at 30 Hz, slower than anyone walks), metres.
+/// standing still (0.3 m/s at 30 Hz; walking, the hips move about 4 cm a frame at 1.2 m/s and
+/// a swinging knee faster still), metres.
 const STILL_BODY_M: f64 = 0.01;
 
 /// A standing foot's sole (the centre of its lowest band seen) that moved less than this since
@@ -840,15 +841,16 @@ impl LegTracker {
         }
         // Update the tracks. An unseen leg moves with the pelvis (the seen hip's step): the
         // pelvis is rigid, and a leg hidden behind the other is carried along by the body.
+        let fitted = |k: usize, f: &LegFit, previous: LegPose| LegTrack {
+            pose: f.pose,
+            previous,
+            missed: 0,
+            sole: soles[k].map(|s| (s, on_floor_legs[k])),
+        };
         let tracks = match (self.legs.take(), &fits) {
             (Some(old), _) => {
                 let upd = |k: usize, t: &LegTrack| match &fits[k] {
-                    Some(f) => Some(LegTrack {
-                        previous: t.pose,
-                        pose: f.pose,
-                        missed: 0,
-                        sole: soles[k].map(|s| (s, on_floor_legs[k])),
-                    }),
+                    Some(f) => Some(fitted(k, f, t.pose)),
                     None if t.missed < self.config.max_inferred_frames => {
                         let step = pelvis_step(&old, &fits, k).unwrap_or_else(Vector3::zeros);
                         Some(LegTrack {
@@ -869,15 +871,7 @@ impl LegTracker {
                     _ => None,
                 }
             }
-            (None, [Some(a), Some(b)]) => Some([0, 1].map(|k| {
-                let pose = [a.pose, b.pose][k];
-                LegTrack {
-                    pose,
-                    previous: pose,
-                    missed: 0,
-                    sole: soles[k].map(|s| (s, on_floor_legs[k])),
-                }
-            })),
+            (None, [Some(a), Some(b)]) => Some([fitted(0, a, a.pose), fitted(1, b, b.pose)]),
             (None, _) => None,
         };
         let Some(tracks) = tracks else {
@@ -964,6 +958,7 @@ impl LegTracker {
         for t in &mut legs {
             t.missed += 1;
             t.previous = t.pose;
+            t.sole = None;
         }
         if legs
             .iter()
