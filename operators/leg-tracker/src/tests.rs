@@ -247,7 +247,7 @@ fn walker_on_the_thesis_rig() {
 }
 
 /// The walker's `Foot` joints (second metatarsal heads): median error per sensor, metres.
-/// Measured 2.5–2.9 cm (8.1–13.6 cm while the foot was the centre of the points below the
+/// Measured 2.6–2.9 cm (8.1–13.6 cm while the foot was the centre of the points below the
 /// ankle).
 const FOOT_MEDIAN_M: f64 = 0.035;
 /// The same, median height error (tracker − truth), metres. Measured +0.4 to +0.9 cm (+2.0 to
@@ -707,9 +707,9 @@ fn a_still_person_on_a_real_frame_gives_still_joints() {
 
 /// A rendered person standing still gives still joints: the walker's pose in double support
 /// (ankles at least 0.5 m apart horizontally) whose left hip is nearest the middle of k1's view
-/// (horizontally), rendered
-/// afresh each frame (new sensor noise every frame). Each hip, knee and ankle stays within 2 cm
-/// of its median position over the frames after the learning and within 5 cm of its truth.
+/// (horizontally), rendered afresh each frame (new sensor noise every frame). Each hip, knee
+/// and ankle stays within 2 cm of its median position over the frames after the learning and
+/// within 5 cm of its truth.
 /// Not met: the right thigh, half seen, is fitted two ways by turns (hip and knee 3.6 and
 /// 4.6 cm apart), and the left ankle sits 14 cm from its truth.
 #[test]
