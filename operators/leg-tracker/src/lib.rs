@@ -707,6 +707,13 @@ impl LegTracker {
             min_band_points: min_pts,
         };
         let legs_now = self.legs.clone();
+        // Someone standing still: hips and knees of both legs still since the last frame.
+        let body_still = legs_now.as_ref().is_some_and(|l| {
+            l.iter().all(|t| {
+                (t.pose.hip - t.previous.hip).norm() < STILL_BODY_M
+                    && (t.pose.knee - t.previous.knee).norm() < STILL_BODY_M
+            })
+        });
         let fit_both = |bands: &[Vec<Band>; 2]| {
             let mut fits: [Option<LegFit>; 2] = [None, None];
             let mut on_floor_legs = [false; 2];
@@ -727,10 +734,6 @@ impl LegTracker {
                 // at the shank length to over the floor), which would otherwise flip it back
                 // up the next frame, and on, every few frames.
                 let still = legs_now.as_ref().is_none_or(|l| {
-                    let body_still = l.iter().all(|t| {
-                        (t.pose.hip - t.previous.hip).norm() < STILL_BODY_M
-                            && (t.pose.knee - t.previous.knee).norm() < STILL_BODY_M
-                    });
                     (l[k].pose.ankle - l[k].previous.ankle).norm() < STILL_ANKLE_M
                         || body_still
                             && l[k].sole.zip(soles[k]).is_some_and(|((was, down), now)| {
