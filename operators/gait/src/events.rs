@@ -557,3 +557,139 @@ fn velocity_events(
 pub(crate) fn heel_at(tracks: &Tracks, foot: Foot, frame: f64) -> Option<nalgebra::Point3<f64>> {
     sample(&tracks.heel[foot.index()], frame)
 }
+
+/// Forward travel (m) a foot covers, at least, in the [`SWING_WINDOW_SECS`] before its heel
+/// strike or after its toe off. A heel strike ends a swing and a toe off starts one, and a
+/// swinging foot crosses a stride length (0.6–1.8 m) in 0.35–0.5 s; even a slow walker's foot
+/// moves 0.2–0.3 m in the last 0.3 s of its swing. A foot in stance moves only by its
+/// tracker's noise: a Kinect ankle that wobbles 6–9 cm forward for a frame or two peaks like a
+/// heel strike in the coordinate method's signal, but its position over the window is the same.
+pub const MIN_SWING_TRAVEL_M: f64 = 0.10;
+
+/// The window over which [`MIN_SWING_TRAVEL_M`] is measured (s).
+pub const SWING_WINDOW_SECS: f64 = 0.3;
+
+/// Whether the foot of `event` is seen swinging next to it: its heel stand-in, median of three
+/// frames at each end, travels at least [`MIN_SWING_TRAVEL_M`] along its segment's walking
+/// direction over the [`SWING_WINDOW_SECS`] before a heel strike or after a toe off. The far end
+/// may come up to half the window closer where the track has a gap; when the foot is not seen
+/// there at all, or not at the event, nothing is known and the event stands.
+pub(crate) fn swing_seen(tracks: &Tracks, segmentation: &Segmentation, event: &GaitEvent) -> bool {
+    let Some(segment) = segmentation.segments.get(event.segment) else {
+        return true;
+    };
+    let d = segment.direction();
+    let track = &tracks.heel[event.foot.index()];
+    let along = |f: usize| -> Option<f64> {
+        let mut v: Vec<f64> = (f.saturating_sub(1)..=f + 1)
+            .filter_map(|i| track.get(i).copied().flatten())
+            .map(|p| horizontal(&p.coords).dot(&d))
+            .collect();
+        if v.is_empty() {
+            return None;
+        }
+        v.sort_by(f64::total_cmp);
+        Some(v[v.len() / 2])
+    };
+    let at = event.frame.round().max(0.0) as usize;
+    let Some(here) = along(at) else {
+        return true;
+    };
+    let window = (SWING_WINDOW_SECS * tracks.rate_hz).round().max(2.0) as usize;
+    let heel_strike = event.kind == EventKind::HeelStrike;
+    // The far end, from the whole window back towards half of it.
+    let far = (window.div_ceil(2)..=window).rev().find_map(|k| {
+        let f = if heel_strike {
+            at.checked_sub(k)?
+        } else {
+            at + k
+        };
+        along(f)
+    });
+    let Some(far) = far else {
+        return true;
+    };
+    let travel = if heel_strike { here - far } else { far - here };
+    travel >= MIN_SWING_TRAVEL_M
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Point3;
+
+    use super::*;
+    use crate::HeelSource;
+
+    /// A left heel along +x at 30 Hz, the right one still, one segment over all frames.
+    fn walk(left_x: &[f64]) -> (Tracks, Segmentation) {
+        let n = left_x.len();
+        let at = |x: f64| Some(Point3::new(x, 0.1, 0.08));
+        let tracks = Tracks {
+            rate_hz: 30.0,
+            pelvis: (0..n).map(|i| at(i as f64 * 0.04)).collect(),
+            heel: [left_x.iter().map(|x| at(*x)).collect(), vec![at(0.0); n]],
+            toe: [vec![None; n], vec![None; n]],
+            heel_source: HeelSource::AnkleCentre,
+        };
+        let segment = WalkingSegment {
+            first_frame: 0,
+            last_frame: n - 1,
+            start_secs: 0.0,
+            end_secs: (n - 1) as f64 / 30.0,
+            direction: [1.0, 0.0],
+            speed_mps: 1.2,
+        };
+        let segmentation = Segmentation {
+            segments: vec![segment],
+            excluded: Vec::new(),
+        };
+        (tracks, segmentation)
+    }
+
+    fn event(kind: EventKind, frame: f64) -> GaitEvent {
+        GaitEvent {
+            foot: Foot::Left,
+            kind,
+            time_secs: frame / 30.0,
+            frame,
+            segment: 0,
+            prominence_m: Some(0.05),
+        }
+    }
+
+    #[test]
+    fn events_need_a_swing_next_to_them() {
+        // Stance at 0, a wobble 9 cm forward for two frames at 12–13, stance again, then a
+        // swing from frame 20 that lands at 0.9 m on frame 30 and stays.
+        let mut x = vec![0.0; 40];
+        x[12] = 0.09;
+        x[13] = 0.06;
+        for (i, v) in x.iter_mut().enumerate().skip(20) {
+            *v = 0.9 * ((i - 20) as f64 / 10.0).min(1.0);
+        }
+        let (tracks, seg) = walk(&x);
+        assert!(!swing_seen(
+            &tracks,
+            &seg,
+            &event(EventKind::HeelStrike, 12.0)
+        ));
+        assert!(swing_seen(
+            &tracks,
+            &seg,
+            &event(EventKind::HeelStrike, 30.0)
+        ));
+        // A toe off needs the swing after it.
+        assert!(swing_seen(&tracks, &seg, &event(EventKind::ToeOff, 20.0)));
+        assert!(!swing_seen(&tracks, &seg, &event(EventKind::ToeOff, 5.0)));
+        // Nothing seen before a heel strike (a gap over the whole window): it stands.
+        let mut unseen = tracks.clone();
+        for p in &mut unseen.heel[0][15..29] {
+            *p = None;
+        }
+        assert!(swing_seen(
+            &unseen,
+            &seg,
+            &event(EventKind::HeelStrike, 30.0)
+        ));
+    }
+}

@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 use trigait_skeleton::MotionClip;
 
 use crate::clean::{CleanParams, DataQuality};
-use crate::events::{detect_in_tracks, edge_heel_strikes, heel_at};
+use crate::events::{detect_in_tracks, edge_heel_strikes, heel_at, swing_seen};
 use crate::physics::{self, FlightPhase, PhysicsParams};
 use crate::segment::{
     ExcludedPhase, ExclusionReason, Segmentation, WalkingSegment, segment_tracks,
@@ -557,6 +557,12 @@ pub struct GaitAnalysis {
     /// two.
     #[serde(default)]
     pub short_contacts: usize,
+    /// Events dropped because the foot did not swing next to them: a heel strike whose foot
+    /// had not moved forward [`crate::events::MIN_SWING_TRAVEL_M`] in the
+    /// [`crate::events::SWING_WINDOW_SECS`] before it, a toe off whose foot did not in that time
+    /// after it (a tracker's ankle wobbling in stance).
+    #[serde(default)]
+    pub stationary_events: usize,
     /// Single steps, by start time.
     pub steps: Vec<Step>,
     /// Straight walking segments.
@@ -612,6 +618,8 @@ pub(crate) struct Detection {
     pub(crate) rejected_events: usize,
     /// Proposed events dropped as one of a too short contact.
     pub(crate) short_contacts: usize,
+    /// Proposed events dropped because the foot was not seen swinging next to them.
+    pub(crate) stationary_events: usize,
     /// The events kept, in time order.
     pub(crate) events: Vec<GaitEvent>,
 }
@@ -671,10 +679,14 @@ pub(crate) fn detect(landmarks: &Landmarks, params: &GaitParams) -> Result<Detec
                 e.kind == EventKind::HeelStrike,
                 e.frame,
                 params.physics.event_gate_m,
+                running,
             )
         })
         .collect();
     let rejected_events = proposed_count - events.len();
+    let before = events.len();
+    events.retain(|e| swing_seen(&tracks, &segmentation, e));
+    let stationary_events = before - events.len();
     let method = params.events.method.for_clip(running);
     if tracks.heel_source == HeelSource::HeelMarker {
         let edges = if method == crate::EventMethod::Coordinate {
@@ -682,7 +694,7 @@ pub(crate) fn detect(landmarks: &Landmarks, params: &GaitParams) -> Result<Detec
             edge_heel_strikes(&tracks, &segmentation, &params.events)
                 .into_iter()
                 .filter(|e| {
-                    heights.allows(e.foot, true, e.frame, params.physics.event_gate_m)
+                    heights.allows(e.foot, true, e.frame, params.physics.event_gate_m, running)
                         && !events.iter().any(|o| {
                             o.foot == e.foot
                                 && o.kind == EventKind::HeelStrike
@@ -715,6 +727,7 @@ pub(crate) fn detect(landmarks: &Landmarks, params: &GaitParams) -> Result<Detec
         method,
         rejected_events,
         short_contacts,
+        stationary_events,
         events,
     })
 }
@@ -794,6 +807,7 @@ pub(crate) fn analyse_detection(d: Detection, params: &GaitParams) -> Result<Gai
         floor: d.floor,
         rejected_events: d.rejected_events,
         short_contacts: d.short_contacts,
+        stationary_events: d.stationary_events,
         segments: segmentation.segments,
         excluded: segmentation.excluded,
         events,

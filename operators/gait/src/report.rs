@@ -36,6 +36,15 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
             a.rejected_events
         ));
     }
+    if a.stationary_events > 0 {
+        out.push(format!(
+            "{} proposed events dropped: the foot did not swing (under {:.2} m forward in the \
+             {:.1} s before a heel strike or after a toe off)",
+            a.stationary_events,
+            crate::events::MIN_SWING_TRAVEL_M,
+            crate::events::SWING_WINDOW_SECS,
+        ));
+    }
     if a.short_contacts > 0 {
         let limit = if a.running { "80 ms" } else { "0.25 s" };
         out.push(format!(
