@@ -9,9 +9,9 @@
 //! pose is a gap, which the segmentation reports or bridges as it does for a marker file.
 //!
 //! **Settled events.** Every [`LiveGaitParams::analyse_every_secs`] the whole retained window is
-//! analysed again, as [`crate::analyse`] does it (cleaning, the airborne and short-contact
-//! checks), and only events that analysis keeps are reported: a foot in the air or a contact
-//! too short to be one is never marked. An event is reported once it lies
+//! analysed again, as [`crate::analyse`] does it (cleaning, the airborne, swing and
+//! short-contact checks), and only events that analysis keeps are reported: a foot in the air,
+//! a foot that did not swing or a contact too short to be one is never marked. An event is reported once it lies
 //! [`LiveGaitParams::settle_secs`] before the newest pose, because the segmentation looks half a
 //! velocity window ahead and a turning point at the very end of the data is not yet a peak.
 //! Later analyses find the same event again, within a frame; one of the same foot and kind
@@ -110,7 +110,7 @@ pub struct LiveReport {
     /// Stream time analysed (s).
     pub analysed_secs: f64,
     /// Heel strikes per foot the final analysis of the window kept (after cleaning and the
-    /// airborne and short-contact checks): the events `parameters` rest on.
+    /// airborne, swing and short-contact checks): the events `parameters` rest on.
     pub heel_strikes: FootCounts,
     /// Toe offs per foot kept the same way.
     pub toe_offs: FootCounts,

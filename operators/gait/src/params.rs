@@ -689,6 +689,8 @@ pub(crate) fn detect(landmarks: &Landmarks, params: &GaitParams) -> Result<Detec
     let stationary_events = before - events.len();
     let method = params.events.method.for_clip(running);
     if tracks.heel_source == HeelSource::HeelMarker {
+        // Edge candidates skip the swing check: `refine_heel_strikes` keeps one only where the
+        // heel marker is seen still swinging (faster than 0.5 m/s) and then landing.
         let edges = if method == crate::EventMethod::Coordinate {
             let separation = params.events.min_separation_secs * rate;
             edge_heel_strikes(&tracks, &segmentation, &params.events)
@@ -741,7 +743,9 @@ pub(crate) fn detect(landmarks: &Landmarks, params: &GaitParams) -> Result<Detec
 /// 4. straight walking segments; a segment whose feet do not alternate is excluded
 ///    ([`ExclusionReason::NotAlternating`]);
 /// 5. events (method chosen for walking or running when `Auto`), dropping any whose foot is
-///    airborne, and one of each heel strike and toe off too close together for a contact;
+///    airborne, any whose foot does not swing next to it (a heel strike must end a swing, a
+///    toe off start one: [`crate::events::MIN_SWING_TRAVEL_M`]), and one of each heel strike
+///    and toe off too close together for a contact;
 /// 6. strides, steps and their summary.
 ///
 /// # Errors

@@ -18,7 +18,8 @@
 //!   foot, 0.2–0.4 m up at the apex, falls only g·t²/2 ≈ 8 cm in that time and stays rejected.
 //! * A **flight phase** is a stretch where *both* feet (lowest of heel and toe) are more than
 //!   [`PhysicsParams::flight_gate_m`] above their levels for at least
-//!   [`PhysicsParams::min_flight_secs`]: running, hopping, jumping. Walking never has one.
+//!   [`PhysicsParams::min_flight_secs`]: running, hopping, jumping. Walking never has one, but
+//!   a tracker's noise can make one (see [`Heights::allows`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -291,6 +292,10 @@ mod tests {
             Some(0.0),
         ]);
         assert!(!unseen.allows(Foot::Left, true, 1.0, 0.10, true));
+        // A Kinect ankle walking towards the sensor: 11 cm up at the instant and for the three
+        // frames after it, down to 6 cm on the fourth (0.13 s) — a landing.
+        let kinect = heights([0.13, 0.114, 0.115, 0.113, 0.102, 0.062].map(Some).to_vec());
+        assert!(kinect.allows(Foot::Left, true, 1.0, 0.10, true));
     }
 
     /// A flight vetoes an event inside it only where flights are real (a clip judged running or
