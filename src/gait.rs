@@ -43,10 +43,12 @@ pub struct Args {
     /// and toe markers, as on a joint export of it.
     #[arg(long)]
     pub joint_centres: bool,
-    /// Trajectory filter before event detection: none, butterworth:<f>hz (zero-lag, e.g.
-    /// butterworth:6hz) or one-euro[:<min cut-off>hz:<beta>].
-    #[arg(long, default_value = "none", value_parser = parse_filter)]
-    pub filter: Filter,
+    /// Trajectory filter, applied after outliers are rejected and before event detection: none,
+    /// butterworth:<f>hz (zero-lag, e.g. butterworth:6hz) or one-euro[:<min cut-off>hz:<beta>].
+    /// Default: butterworth:6hz for skeletons and joint trajectories (ankle centres stand in for
+    /// the heels), none for skin-marker files.
+    #[arg(long, value_parser = parse_filter)]
+    pub filter: Option<Filter>,
     /// Print the full result (segments, excluded phases, events, strides, summary) as JSON.
     #[arg(long)]
     pub json: bool,
@@ -215,9 +217,11 @@ pub struct GaitInput {
     pub landmarks: trigait_gait::Landmarks,
     /// Notes on how the file was read, for the report.
     pub notes: Vec<String>,
+    /// The filter the analysis applies after its cleaning (see [`Args::filter`]).
+    pub filter: Filter,
 }
 
-/// The joints a [`trigait_gait::Landmarks`] becomes for filtering and plotting: pelvis →
+/// The joints a [`trigait_gait::Landmarks`] becomes for plotting: pelvis →
 /// `SpineBase`, heels → ankles, toes → feet.
 fn landmarks_clip(name: &str, l: &trigait_gait::Landmarks) -> eyre::Result<MotionClip> {
     let frames = (0..l.len())
@@ -244,24 +248,6 @@ fn landmarks_clip(name: &str, l: &trigait_gait::Landmarks) -> eyre::Result<Motio
         frames,
     )
     .wrap_err("assembling the landmark trajectories")
-}
-
-fn landmarks_from_clip_of(
-    clip: &MotionClip,
-    heel_source: trigait_gait::HeelSource,
-) -> eyre::Result<trigait_gait::Landmarks> {
-    let track = |j: Joint| {
-        (0..clip.frame_count())
-            .map(|f| clip.position(f, j))
-            .collect()
-    };
-    Ok(trigait_gait::Landmarks {
-        rate_hz: clip.rate_hz(),
-        pelvis: track(Joint::SpineBase),
-        heel: [track(Joint::AnkleLeft), track(Joint::AnkleRight)],
-        toe: [track(Joint::FootLeft), track(Joint::FootRight)],
-        heel_source,
-    })
 }
 
 /// Whether `path` is Kinect SDK skeleton text (`.txt`), which [`load_input`] reads.
@@ -332,6 +318,7 @@ pub fn load_input(
             clip: Some(sdk.clip),
             landmarks,
             notes,
+            filter: Filter::None,
         });
     }
     if rate_hz.is_some() {
@@ -349,6 +336,7 @@ pub fn load_input(
             clip: Some(clip),
             landmarks,
             notes: vec!["joint trajectories: ankle centres stand in for the heels".to_owned()],
+            filter: Filter::None,
         });
     }
     let markers = trigait_motion::read_markers(path)
@@ -359,6 +347,7 @@ pub fn load_input(
             clip: Some(clip),
             landmarks,
             notes: vec!["joint trajectories: ankle centres stand in for the heels".to_owned()],
+            filter: Filter::None,
         });
     }
     if joint_centres {
@@ -369,6 +358,7 @@ pub fn load_input(
             clip: Some(clip),
             landmarks,
             notes: vec!["joint centres: ankle centres stand in for the heels".to_owned()],
+            filter: Filter::None,
         });
     }
     let feet = trigait_motion::foot_markers(&markers)
@@ -406,6 +396,7 @@ pub fn load_input(
         clip,
         landmarks,
         notes,
+        filter: Filter::None,
     })
 }
 
@@ -424,33 +415,8 @@ fn gait_params(args: &Args) -> GaitParams {
     params
 }
 
-/// Filters the landmarks (and the clip) with `filter`.
-fn filtered(input: GaitInput, filter: &Filter, file: &Path) -> eyre::Result<GaitInput> {
-    if matches!(filter, Filter::None) {
-        return Ok(input);
-    }
-    let name = file.display().to_string();
-    let as_clip = landmarks_clip(&name, &input.landmarks)?;
-    let as_clip = filter
-        .apply(&as_clip)
-        .wrap_err_with(|| format!("filtering with {filter}"))?;
-    let landmarks = landmarks_from_clip_of(&as_clip, input.landmarks.heel_source)?;
-    let clip = match input.clip {
-        Some(c) => Some(
-            filter
-                .apply(&c)
-                .wrap_err_with(|| format!("filtering with {filter}"))?,
-        ),
-        None => None,
-    };
-    Ok(GaitInput {
-        clip,
-        landmarks,
-        notes: input.notes,
-    })
-}
-
-/// Reads, filters and analyses `args.file`: the input (for plots) and the analysis.
+/// Reads and analyses `args.file` (filtered after the cleaning): the input (for plots) and the
+/// analysis.
 pub fn analyse_file(args: &Args) -> eyre::Result<(GaitInput, GaitAnalysis)> {
     let input = load_input(
         &args.file,
@@ -458,8 +424,17 @@ pub fn analyse_file(args: &Args) -> eyre::Result<(GaitInput, GaitAnalysis)> {
         args.joint_centres,
         args.rate,
     )?;
-    let input = filtered(input, &args.filter, &args.file)?;
-    let params = gait_params(args);
+    let filter = args.filter.unwrap_or(match input.landmarks.heel_source {
+        trigait_gait::HeelSource::AnkleCentre => {
+            trigait_gait::filter::skeleton_filter(input.landmarks.rate_hz)
+        }
+        trigait_gait::HeelSource::HeelMarker => Filter::None,
+    });
+    let input = GaitInput { filter, ..input };
+    let params = GaitParams {
+        filter,
+        ..gait_params(args)
+    };
     let analysis = trigait_gait::analyse_landmarks(&input.landmarks, &params)
         .wrap_err_with(|| format!("analysing the gait in {}", args.file.display()))?;
     Ok((input, analysis))
@@ -492,7 +467,7 @@ pub fn run(args: Args) -> eyre::Result<()> {
     if args.json {
         let report = Report {
             file: args.file.display().to_string(),
-            filter: args.filter.to_string(),
+            filter: input.filter.to_string(),
             notes: input.notes.clone(),
             heel_strikes: Counts::of(&analysis, EventKind::HeelStrike),
             toe_offs: Counts::of(&analysis, EventKind::ToeOff),
@@ -501,7 +476,7 @@ pub fn run(args: Args) -> eyre::Result<()> {
         };
         crate::stdout::print_json(&report)
     } else {
-        let mut text = table(&args, &input.notes, &analysis);
+        let mut text = table(&args, &input, &analysis);
         if let Some(k) = &kinect_sim {
             text.push_str(&kinect_table(k));
         }
@@ -519,13 +494,11 @@ fn run_kinect_sim(args: &Args, clip: &MotionClip, params: &GaitParams) -> eyre::
         .wrap_err_with(|| format!("loading rig {:?}", args.rig))?;
     let motion = clip.placed_on_walkway();
     let fused = simulate_kinect_pipeline(&motion, &rig, args.seed)?;
-    let fused = args.kinect_filter.apply(&fused).wrap_err_with(|| {
-        format!(
-            "filtering the Kinect trajectories with {}",
-            args.kinect_filter
-        )
-    })?;
-    let analysis = trigait_gait::analyse(&fused, params)
+    let kinect_params = GaitParams {
+        filter: args.kinect_filter,
+        ..*params
+    };
+    let analysis = trigait_gait::analyse(&fused, &kinect_params)
         .wrap_err("analysing the gait seen by the simulated Kinect pipeline")?;
     let comparison = trigait_gait::compare(&reference.summary, &analysis.summary);
     let reference = reference.summary;
@@ -670,7 +643,7 @@ fn cell(v: Option<f64>, digits: usize) -> String {
 }
 
 /// The human-readable report.
-fn table(args: &Args, notes: &[String], a: &GaitAnalysis) -> String {
+fn table(args: &Args, input: &GaitInput, a: &GaitAnalysis) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let _ = writeln!(
@@ -680,9 +653,9 @@ fn table(args: &Args, notes: &[String], a: &GaitAnalysis) -> String {
         a.rate_hz,
         a.duration_secs,
         a.method.name(),
-        args.filter
+        input.filter
     );
-    for note in trigait_gait::report::quality_notes(notes, a) {
+    for note in trigait_gait::report::quality_notes(&input.notes, a) {
         let _ = writeln!(out, "note: {note}");
     }
     for (i, s) in a.segments.iter().enumerate() {

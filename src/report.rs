@@ -23,9 +23,10 @@ pub struct Args {
     /// Gait-event detector (see `trigait gait --help`).
     #[arg(long, value_enum, default_value_t = Method::Auto)]
     pub method: Method,
-    /// Trajectory filter before event detection (see `trigait gait --help`).
-    #[arg(long, default_value = "none", value_parser = parse_filter)]
-    pub filter: Filter,
+    /// Trajectory filter after outlier rejection (see `trigait gait --help`; by default
+    /// butterworth:6hz for skeletons and joint trajectories, none for skin-marker files).
+    #[arg(long, value_parser = parse_filter)]
+    pub filter: Option<Filter>,
     /// Treadmill walking, at SPEED m/s if given (else estimated).
     #[arg(long, value_name = "SPEED", num_args = 0..=1)]
     pub treadmill: Option<Option<f64>>,
@@ -97,7 +98,7 @@ pub fn render(
     let clip = gait::plot_clip(input, &args.file)?;
     Ok(trigait_gait::report::html(
         title,
-        &args.filter.to_string(),
+        &input.filter.to_string(),
         &input.notes,
         &clip,
         a,
@@ -119,7 +120,7 @@ mod tests {
             file: path,
             output: PathBuf::from("unused.html"),
             method: Method::Auto,
-            filter: Filter::None,
+            filter: None,
             treadmill: None,
             overground: false,
             keep_inferred: false,

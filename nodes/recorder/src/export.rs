@@ -164,7 +164,8 @@ pub fn write_trajectory(dir: &Path, trajectory: &Trajectory) -> eyre::Result<()>
     Ok(())
 }
 
-/// The gait report page of the run's fused joints, analysed with the `trigait gait` defaults;
+/// The gait report page of the run's fused joints, analysed with the `trigait gait` defaults
+/// for a skeleton stream (low-passed after the cleaning, [`trigait_gait::filter::skeleton_filter`]);
 /// a run without gait parameters gets a page that says why.
 fn gait_report(clip: &trigait_skeleton::MotionClip) -> String {
     let title = "trigait graph run: fused joints (trajectory.csv)";
@@ -173,9 +174,16 @@ fn gait_report(clip: &trigait_skeleton::MotionClip) -> String {
         clip.frame_count(),
         clip.rate_hz()
     )];
+    let params = trigait_gait::GaitParams {
+        filter: trigait_gait::filter::skeleton_filter(clip.rate_hz()),
+        ..trigait_gait::GaitParams::default()
+    };
     let page = trigait_gait::Landmarks::from_clip(clip)
-        .and_then(|l| trigait_gait::analyse_landmarks(&l, &trigait_gait::GaitParams::default()))
-        .and_then(|a| trigait_gait::report::html(title, "none", &notes, clip, &a));
+        .and_then(|l| trigait_gait::analyse_landmarks(&l, &params))
+        .and_then(|a| {
+            let filter = params.filter.to_string();
+            trigait_gait::report::html(title, &filter, &notes, clip, &a)
+        });
     page.unwrap_or_else(|e| {
         warn!("the gait report has no parameters: {e}");
         trigait_gait::report::html_without_analysis(title, &e.to_string(), &notes)

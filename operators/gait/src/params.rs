@@ -508,6 +508,12 @@ pub struct GaitParams {
     /// segment to be gait. Default −0.3: walking and running give −0.8 to −1, two-footed hops
     /// and jumps +0.5 to +1.
     pub max_alternation_correlation: f64,
+    /// Low-pass filter of the landmarks, applied after the cleaning: a tracker's jump is
+    /// rejected as the outlier it is before a filter could smear it over its neighbours and
+    /// make it look like motion. Default none (marker data needs none); `trigait gait` filters
+    /// skeleton streams by default.
+    #[serde(default)]
+    pub filter: crate::filter::Filter,
 }
 
 impl Default for GaitParams {
@@ -520,6 +526,7 @@ impl Default for GaitParams {
             physics: PhysicsParams::default(),
             treadmill: TreadmillMode::Auto,
             max_alternation_correlation: -0.3,
+            filter: crate::filter::Filter::None,
         }
     }
 }
@@ -624,6 +631,20 @@ pub(crate) struct Detection {
     pub(crate) events: Vec<GaitEvent>,
 }
 
+/// Every landmark track of `tracks` filtered by `filter`, gaps kept.
+fn filter_tracks(tracks: &mut Tracks, filter: &crate::filter::Filter) -> Result<()> {
+    if *filter == crate::filter::Filter::None {
+        return Ok(());
+    }
+    let rate = tracks.rate_hz;
+    let [h0, h1] = &mut tracks.heel;
+    let [t0, t1] = &mut tracks.toe;
+    for track in [&mut tracks.pelvis, h0, h1, t0, t1] {
+        *track = filter.apply_track(track, rate)?;
+    }
+    Ok(())
+}
+
 /// The events of landmark tracks: steps 1–5 of [`analyse_landmarks`] ([`Detection`]).
 ///
 /// # Errors
@@ -635,6 +656,7 @@ pub(crate) fn detect(landmarks: &Landmarks, params: &GaitParams) -> Result<Detec
     landmarks.validate()?;
     let mut tracks = landmarks.clone();
     let quality = crate::clean::clean(&mut tracks, &params.clean)?;
+    filter_tracks(&mut tracks, &params.filter)?;
     let floor = crate::floor::level(&mut tracks);
     let heights = physics::heights(&tracks, &params.physics);
     let treadmill = treadmill::correct(&mut tracks, &heights, params.treadmill);
@@ -736,8 +758,9 @@ pub(crate) fn detect(landmarks: &Landmarks, params: &GaitParams) -> Result<Detec
 
 /// The full analysis of landmark tracks:
 ///
-/// 1. outliers rejected and short gaps bridged ([`crate::clean()`]), and the floor levelled
-///    when the landmarks' frame is tilted ([`crate::floor`]);
+/// 1. outliers rejected and short gaps bridged ([`crate::clean()`]), then the
+///    [`GaitParams::filter`], and the floor levelled when the landmarks' frame is tilted
+///    ([`crate::floor`]);
 /// 2. stance levels and flight phases ([`crate::physics`]);
 /// 3. the treadmill correction when declared or detected ([`crate::treadmill`]);
 /// 4. straight walking segments; a segment whose feet do not alternate is excluded
