@@ -8,20 +8,23 @@ and step width are compared with the walk's own; then the real Kinect SDK logs a
 the same filter (`trigait gait --filter`) and their strides and steps listed. The filter runs
 after the analysis rejects outliers.
 
-Run from the repository after `cargo build --release -p trigait`:
+Run from the repository, after the one release build:
+    cargo build --release --workspace --all-targets
     python3 scripts/gait_filter_sweep.py
-Standard library only.
+The shared data is read from $TRIGAIT_SHARED_DATA, else ../shared/data beside the clone, and
+the binary from $CARGO_TARGET_DIR/release, else target/release. Standard library only.
 """
 
 import json
+import os
 import statistics
 import subprocess
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-BIN = ROOT / "target" / "release" / "trigait"
-DATA = ROOT.parent / "shared" / "data"
+BIN = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")) / "release" / "trigait"
+DATA = Path(os.environ.get("TRIGAIT_SHARED_DATA", ROOT.parent / "shared" / "data"))
 WALKS = {
     "CMU 07_01": DATA / "mocap-cmu-07_01" / "07_01.c3d",
     "Rajagopal": DATA / "mocap-opensim-rajagopal-walk" / "Rajagopal__motion_capture_walk.trc",
@@ -38,7 +41,9 @@ SEEDS = range(1, 11)
 def gait(*args):
     out = subprocess.run([str(BIN), "gait", *map(str, args), "--json"], capture_output=True, text=True)
     if out.returncode != 0:
-        return None, out.stderr.strip().splitlines()[-1]
+        lines = out.stderr.strip().splitlines()
+        return None, lines[-1] if lines else f"exit status {out.returncode}"
+
     return json.loads(out.stdout), None
 
 
@@ -77,7 +82,7 @@ def real(flt):
 
 def main():
     if not BIN.exists():
-        sys.exit(f"{BIN} is missing: run `cargo build --release -p trigait` first")
+        sys.exit(f"{BIN} is missing: run the release build first (see the top of this script)")
     missing = [p for p in [*WALKS.values(), *KINECT_LOGS.values()] if not p.exists()]
     if missing:
         sys.exit(f"missing shared data: {', '.join(map(str, missing))}")

@@ -45,8 +45,8 @@ pub struct Args {
     pub joint_centres: bool,
     /// Trajectory filter, applied after outliers are rejected and before event detection: none,
     /// butterworth:<f>hz (zero-lag, e.g. butterworth:6hz) or one-euro[:<min cut-off>hz:<beta>].
-    /// Default: butterworth:6hz for skeletons and joint trajectories (ankle centres stand in for
-    /// the heels), none for skin-marker files.
+    /// Default: butterworth:6hz for Kinect skeletons and joint trajectories (none below about
+    /// 16 Hz, too slow for it), none for skin-marker files and the joint centres placed from them.
     #[arg(long, value_parser = parse_filter)]
     pub filter: Option<Filter>,
     /// Print the full result (segments, excluded phases, events, strides, summary) as JSON.
@@ -69,7 +69,8 @@ pub struct Args {
     /// Noise seed for `--kinect-sim` (any 64-bit number).
     #[arg(long, default_value_t = 1, requires = "kinect_sim")]
     pub seed: u64,
-    /// Filter applied to the simulated Kinect trajectories before their gait analysis.
+    /// Filter applied to the simulated Kinect trajectories in their gait analysis (after its
+    /// cleaning).
     #[arg(long, default_value = "butterworth:6hz", value_parser = parse_filter, requires = "kinect_sim")]
     pub kinect_filter: Filter,
 }
@@ -217,7 +218,9 @@ pub struct GaitInput {
     pub landmarks: trigait_gait::Landmarks,
     /// Notes on how the file was read, for the report.
     pub notes: Vec<String>,
-    /// The filter the analysis applies after its cleaning (see [`Args::filter`]).
+    /// The filter the analysis applies after its cleaning: the input's default (6 Hz for a
+    /// skeleton stream or joint trajectories, none for skin markers and the joint centres placed
+    /// from them) until [`analyse_file`] puts `--filter` in its place.
     pub filter: Filter,
 }
 
@@ -315,10 +318,10 @@ pub fn load_input(
             notes.push("no foot joints: toe offs from the ankles".to_owned());
         }
         return Ok(GaitInput {
+            filter: trigait_gait::filter::skeleton_filter(landmarks.rate_hz),
             clip: Some(sdk.clip),
             landmarks,
             notes,
-            filter: Filter::None,
         });
     }
     if rate_hz.is_some() {
@@ -333,10 +336,10 @@ pub fn load_input(
         let clip = load_clip(path)?;
         let landmarks = trigait_gait::Landmarks::from_clip(&clip)?;
         return Ok(GaitInput {
+            filter: trigait_gait::filter::skeleton_filter(landmarks.rate_hz),
             clip: Some(clip),
             landmarks,
             notes: vec!["joint trajectories: ankle centres stand in for the heels".to_owned()],
-            filter: Filter::None,
         });
     }
     let markers = trigait_motion::read_markers(path)
@@ -344,10 +347,10 @@ pub fn load_input(
     if let Some(clip) = trigait_motion::joints_from_labels(&markers) {
         let landmarks = trigait_gait::Landmarks::from_clip(&clip)?;
         return Ok(GaitInput {
+            filter: trigait_gait::filter::skeleton_filter(landmarks.rate_hz),
             clip: Some(clip),
             landmarks,
             notes: vec!["joint trajectories: ankle centres stand in for the heels".to_owned()],
-            filter: Filter::None,
         });
     }
     if joint_centres {
@@ -424,12 +427,14 @@ pub fn analyse_file(args: &Args) -> eyre::Result<(GaitInput, GaitAnalysis)> {
         args.joint_centres,
         args.rate,
     )?;
-    let filter = args.filter.unwrap_or(match input.landmarks.heel_source {
-        trigait_gait::HeelSource::AnkleCentre => {
-            trigait_gait::filter::skeleton_filter(input.landmarks.rate_hz)
-        }
-        trigait_gait::HeelSource::HeelMarker => Filter::None,
-    });
+    let filter = args.filter.unwrap_or(input.filter);
+    filter.validate(input.landmarks.rate_hz).wrap_err_with(|| {
+        format!(
+            "--filter {filter} on {} at {:.0} Hz",
+            args.file.display(),
+            input.landmarks.rate_hz
+        )
+    })?;
     let input = GaitInput { filter, ..input };
     let params = GaitParams {
         filter,

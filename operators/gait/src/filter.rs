@@ -76,13 +76,10 @@ pub const SKELETON_FILTER: Filter = Filter::Butterworth { cutoff_hz: 6.0 };
 /// `--rate 10`; such a stream holds little above 6 Hz to remove).
 #[must_use]
 pub fn skeleton_filter(rate_hz: f64) -> Filter {
-    match SKELETON_FILTER {
-        Filter::Butterworth { cutoff_hz }
-            if Biquad::zero_lag_lowpass(cutoff_hz, rate_hz).is_ok() =>
-        {
-            SKELETON_FILTER
-        }
-        _ => Filter::None,
+    if SKELETON_FILTER.validate(rate_hz).is_ok() {
+        SKELETON_FILTER
+    } else {
+        Filter::None
     }
 }
 
@@ -179,6 +176,21 @@ impl Filter {
             })
             .collect();
         Ok(MotionClip::new(clip.name(), rate, joints, frames)?)
+    }
+
+    /// Whether the filter can run on data sampled at `rate_hz` (a Butterworth cut-off must lie
+    /// below 0.76 × the Nyquist frequency).
+    ///
+    /// # Errors
+    /// [`Error::BadParameter`] naming what does not fit.
+    pub fn validate(&self, rate_hz: f64) -> Result<()> {
+        match self {
+            Filter::None => Ok(()),
+            Filter::Butterworth { cutoff_hz } => {
+                Biquad::zero_lag_lowpass(*cutoff_hz, rate_hz).map(|_| ())
+            }
+            Filter::OneEuro(params) => OneEuro::new(*params).map(|_| ()),
+        }
     }
 
     /// Filters one trajectory sampled at `rate_hz`; `None` samples are gaps and stay gaps.

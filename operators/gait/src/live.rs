@@ -37,8 +37,9 @@ use crate::{
 /// Tuning of [`LiveGait`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LiveGaitParams {
-    /// The analysis itself (segmentation, event method, minimum strides); the defaults are the
-    /// `trigait gait` defaults (coordinate method, 2 strides).
+    /// The analysis itself (segmentation, event method, minimum strides, filter); the default
+    /// is [`GaitParams::default`], which filters nothing (the recorder's final page low-passes
+    /// the whole run as `trigait gait` does a skeleton stream).
     pub gait: GaitParams,
     /// Stream time (s) between two analyses. Default 1 s.
     pub analyse_every_secs: f64,
