@@ -12,8 +12,9 @@
 //! analysed again, as [`crate::analyse`] does it (cleaning, the airborne, swing and
 //! short-contact checks), and only events that analysis keeps are reported: a foot in the air,
 //! a foot that did not swing or a contact too short to be one is never marked. An event is
-//! reported once it lies [`LiveGaitParams::settle_secs`] before the newest pose, because the segmentation looks half a
-//! velocity window ahead and a turning point at the very end of the data is not yet a peak.
+//! reported once it lies [`LiveGaitParams::settle_secs`] before the newest pose, because the
+//! segmentation looks half a velocity window ahead and a turning point at the very end of the
+//! data is not yet a peak.
 //! Later analyses find the same event again, within a frame; one of the same foot and kind
 //! closer than half the minimum event separation to one already reported is the same event and
 //! is not reported twice. A reported event stays reported, though a later analysis of the longer
