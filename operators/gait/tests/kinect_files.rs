@@ -139,34 +139,28 @@ fn assert_plausible_distances(a: &GaitAnalysis) {
 /// 0.3–0.9 m (adult norms about 1.2–1.5 and 0.6–0.75 m, widened for slow and brisk walkers), each
 /// at a cadence of 70–140 steps/min (norms about 100–120), and a clock that keeps a human rhythm.
 fn assert_plausible(a: &GaitAnalysis) {
+    let within = |range: std::ops::RangeInclusive<f64>, value: f64, what: &str| {
+        assert!(range.contains(&value), "{what} {value:.2}");
+    };
     assert!(!a.strides.is_empty(), "no stride");
     for s in &a.strides {
-        assert!(
-            (0.6..=1.8).contains(&s.stride_length_m),
-            "{:?} stride {:.2} m",
-            s.foot,
-            s.stride_length_m
-        );
-        assert!(
-            (70.0..=140.0).contains(&s.cadence_steps_per_min),
-            "{:?} stride at {:.0} steps/min",
-            s.foot,
-            s.cadence_steps_per_min
+        let foot = format!("{:?}", s.foot);
+        within(0.6..=1.8, s.stride_length_m, &format!("{foot} stride (m)"));
+        within(
+            70.0..=140.0,
+            s.cadence_steps_per_min,
+            &format!("{foot} stride (steps/min)"),
         );
     }
     for s in &a.steps {
+        let foot = format!("{:?}", s.foot);
         if let Some(length) = s.step_length_m {
-            assert!(
-                (0.3..=0.9).contains(&length),
-                "{:?} step {length:.2} m",
-                s.foot
-            );
+            within(0.3..=0.9, length, &format!("{foot} step (m)"));
         }
-        assert!(
-            (70.0..=140.0).contains(&s.cadence_steps_per_min),
-            "{:?} step at {:.0} steps/min",
-            s.foot,
-            s.cadence_steps_per_min
+        within(
+            70.0..=140.0,
+            s.cadence_steps_per_min,
+            &format!("{foot} step (steps/min)"),
         );
     }
     assert!(!a.timing.implausible, "{:?}", a.timing);
