@@ -56,6 +56,14 @@ if wait.get("deadline_ms") is not None:
     print(f"  sets handed on   : {why} (a set waits for each sensor's next frame, at most "
           f"{wait['frame_wait_margin_ms']:g} ms past its expected arrival, {wait['deadline_ms']:g} ms in all)")
 print(f"  gaps             : {len(s['gaps'])}")
+g = s.get("gait") or {}
+if g.get("cadence_steps_per_min") is not None:
+    num = lambda key, digits: "n/a" if g.get(key) is None else f"{g[key]:.{digits}f}"
+    print(f"  gait             : {g['strides']} strides, cadence {num('cadence_steps_per_min', 1)} steps/min, "
+          f"stride {num('stride_length_m', 3)} m, speed {num('speed_mps', 3)} m/s, "
+          f"step width {num('step_width_m', 3)} m (filter {g.get('filter') or 'none'})")
+elif g:
+    print(f"  gait             : no parameters ({g.get('reason')})")
 print(f"  recording        : {out}/trigait.rrd  (view: .venv/bin/rerun {out}/trigait.rrd)")
 print(f"  exports          : {out}/trajectory.txt (thesis format), {out}/trajectory.csv/.trc/.c3d (trigait gait/export read them)")
 import os

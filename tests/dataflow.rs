@@ -231,9 +231,21 @@ fn default_graph_meets_acceptance() {
     let report = std::fs::read_to_string(run.out_dir.join("report.html")).unwrap();
     trigait_gait::report::check_well_formed(&report).unwrap();
     assert_eq!(report.matches("<svg").count(), 2);
+    let cell = "<td>cadence (steps/min)</td><td>";
+    let page_cadence: f64 = report
+        .split(cell)
+        .nth(1)
+        .and_then(|rest| rest.split('<').next())
+        .and_then(|v| v.trim().parse().ok())
+        .expect("no cadence in the report");
+    // `summary.json`'s gait and the page analyse the run alike: the same low-pass, the same
+    // cadence (the live analysis's grid is its own, so to within 1 %).
+    let g = &s["gait"];
+    assert_eq!(g["filter"], "butterworth:6hz", "{g:#}");
+    let live_cadence = f(&g["cadence_steps_per_min"]);
     assert!(
-        report.contains("<td>cadence (steps/min)</td><td>1"),
-        "no cadence in the report"
+        (page_cadence / live_cadence - 1.0).abs() < 0.01,
+        "report.html {page_cadence} steps/min, summary.json {live_cadence}"
     );
 }
 

@@ -1,12 +1,13 @@
 //! The gait panel: events, stance/swing, the parameter table and the flexion curves of the fused
 //! walk, logged to rerun while the graph runs; the parameters go to `summary.json` at the end.
 //!
-//! The analysis is `trigait-gait`'s [`LiveGait`] with the `trigait gait` defaults (Zeni et al.
-//! 2008 coordinate method): every second of stream time the retained fused trajectories are
-//! analysed again in full, and the events that analysis keeps that have settled (1.5 s old) are
-//! logged, so no marker stands for a foot in the air or a contact too short to be one; when one
-//! is a heel strike, the table and the flexion curves are redrawn from that same analysis. At
-//! the end the rest is logged and the parameters computed over the whole recording.
+//! The analysis is `trigait-gait`'s [`LiveGait`] with the `trigait gait` defaults for a skeleton
+//! stream (Zeni et al. 2008 coordinate method, a 6 Hz low-pass after the cleaning): every second
+//! of stream time the retained fused trajectories are analysed again in full, and the events
+//! that analysis keeps that have settled (1.5 s old) are logged, so no marker stands for a foot
+//! in the air or a contact too short to be one; when one is a heel strike, the table and the
+//! flexion curves are redrawn from that same analysis. At the end the rest is logged and the
+//! parameters computed over the whole recording.
 //!
 //! It runs on a thread of its own, fed the poses through a channel: a full analysis takes tens
 //! of milliseconds (35 ms for a 24 s window on the 2-core machine, 140 ms for 10 min), which on
@@ -100,6 +101,21 @@ enum Message {
     Finish,
 }
 
+/// The live analysis as `trigait gait` runs a skeleton stream and as the final `report.html`
+/// page does: the fused joints low-passed after the cleaning
+/// ([`trigait_gait::filter::SKELETON_FILTER`], none where the stream's rate cannot carry it),
+/// so the events logged and `summary.json` agree with the page, which analyses the run's
+/// trajectory the same way.
+fn live_params() -> LiveGaitParams {
+    LiveGaitParams {
+        gait: trigait_gait::GaitParams {
+            filter: trigait_gait::filter::SKELETON_FILTER,
+            ..trigait_gait::GaitParams::default()
+        },
+        ..LiveGaitParams::default()
+    }
+}
+
 /// The recorder's gait analysis: the handle of its thread.
 #[derive(Debug)]
 pub struct Gait {
@@ -143,7 +159,7 @@ impl Gait {
         let (tx, rx) = std::sync::mpsc::channel();
         let mut worker = Worker {
             viz: viz.clone(),
-            live: LiveGait::new(LiveGaitParams::default()),
+            live: LiveGait::new(live_params()),
             last_stamp_nanos: None,
             drawn_until: BTreeMap::new(),
             knee: BTreeMap::new(),
@@ -175,7 +191,7 @@ impl Gait {
         match self.worker.take().map(std::thread::JoinHandle::join) {
             Some(Ok(done)) => done,
             _ => {
-                let (_, mut report) = LiveGait::new(LiveGaitParams::default()).finish();
+                let (_, mut report) = LiveGait::new(live_params()).finish();
                 report.reason = Some("the gait analysis thread failed".to_owned());
                 (report, Err(eyre::eyre!("the gait analysis thread failed")))
             }

@@ -76,11 +76,7 @@ pub const SKELETON_FILTER: Filter = Filter::Butterworth { cutoff_hz: 6.0 };
 /// `--rate 10`; such a stream holds little above 6 Hz to remove).
 #[must_use]
 pub fn skeleton_filter(rate_hz: f64) -> Filter {
-    if SKELETON_FILTER.validate(rate_hz).is_ok() {
-        SKELETON_FILTER
-    } else {
-        Filter::None
-    }
+    SKELETON_FILTER.or_none_at(rate_hz)
 }
 
 const FILTER_FORMS: &str = "none, butterworth, butterworth:<cut-off>hz (e.g. butterworth:6hz), \
@@ -176,6 +172,17 @@ impl Filter {
             })
             .collect();
         Ok(MotionClip::new(clip.name(), rate, joints, frames)?)
+    }
+
+    /// This filter where a stream sampled at `rate_hz` can carry it ([`Filter::validate`]),
+    /// otherwise none.
+    #[must_use]
+    pub fn or_none_at(self, rate_hz: f64) -> Filter {
+        if self.validate(rate_hz).is_ok() {
+            self
+        } else {
+            Filter::None
+        }
     }
 
     /// Whether the filter can run on data sampled at `rate_hz` (a Butterworth cut-off must lie

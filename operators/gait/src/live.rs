@@ -39,8 +39,9 @@ use crate::{
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LiveGaitParams {
     /// The analysis itself (segmentation, event method, minimum strides, filter); the default
-    /// is [`GaitParams::default`], which filters nothing (the recorder's final page low-passes
-    /// the whole run as `trigait gait` does a skeleton stream).
+    /// is [`GaitParams::default`], which filters nothing (the recorder asks for the skeleton
+    /// stream's low-pass, as `trigait gait` runs one). A filter the stream's rate cannot carry
+    /// is left out ([`crate::filter::Filter::or_none_at`]); the report names the one that ran.
     pub gait: GaitParams,
     /// Stream time (s) between two analyses. Default 1 s.
     pub analyse_every_secs: f64,
@@ -109,6 +110,11 @@ pub struct LiveReport {
     pub method: EventMethod,
     /// Sample rate found from the stamps (Hz); `None` with too few poses.
     pub rate_hz: Option<f64>,
+    /// The low-pass filter the analysis ran on the landmarks after the cleaning (`none`,
+    /// `butterworth:6hz`, …): the configured one, or none where the stream's rate cannot carry
+    /// its cut-off ([`crate::filter::Filter::or_none_at`]).
+    #[serde(default)]
+    pub filter: String,
     /// Stream time analysed (s).
     pub analysed_secs: f64,
     /// Heel strikes per foot the final analysis of the window kept (after cleaning and the
@@ -290,7 +296,10 @@ impl LiveGait {
         if self.latest.is_none() {
             let newest = *self.samples.last_key_value()?.0;
             let grid = self.grid()?;
-            let gait = &self.params.gait;
+            let gait = &GaitParams {
+                filter: self.params.gait.filter.or_none_at(grid.clip.rate_hz()),
+                ..self.params.gait
+            };
             let detection = Landmarks::from_clip(&grid.clip).and_then(|l| detect(&l, gait));
             let (events, segmentation) = match &detection {
                 Ok(d) => (d.events.clone(), Some(d.segmentation.clone())),
@@ -319,6 +328,7 @@ impl LiveGait {
             let report = LiveReport {
                 method,
                 rate_hz: None,
+                filter: self.params.gait.filter.to_string(),
                 analysed_secs: 0.0,
                 heel_strikes: FootCounts::default(),
                 toe_offs: FootCounts::default(),
@@ -356,6 +366,7 @@ impl LiveGait {
         let report = LiveReport {
             method: live.analysis.as_ref().map_or(method, |a| a.method),
             rate_hz: Some(rate),
+            filter: self.params.gait.filter.or_none_at(rate).to_string(),
             analysed_secs: live.clip.duration_secs(),
             heel_strikes: FootCounts::count(kinds(), EventKind::HeelStrike),
             toe_offs: FootCounts::count(kinds(), EventKind::ToeOff),
@@ -588,6 +599,40 @@ mod tests {
             report.events_reported.left + report.events_reported.right,
             streamed.len() + rest.len()
         );
+    }
+
+    /// A configured filter runs where the stream's rate carries it and is named in the report:
+    /// at 30 Hz the 6 Hz low-pass changes the analysis of a jittery stream (its parameters are
+    /// not the unfiltered ones) and keeps the walker's cadence; the same stream thinned to
+    /// 10 Hz, too slow for a 6 Hz cut-off, is analysed unfiltered and says so, instead of
+    /// failing.
+    #[test]
+    fn the_filter_that_ran_is_reported() {
+        let rows = stream(12.0, 0.02, 0);
+        let filtered = LiveGaitParams {
+            gait: GaitParams {
+                filter: crate::filter::SKELETON_FILTER,
+                ..GaitParams::default()
+            },
+            ..LiveGaitParams::default()
+        };
+        let run = |params: LiveGaitParams, rows: &[(i64, BTreeMap<Joint, Point3<f64>>)]| {
+            let mut live = LiveGait::new(params);
+            feed(&mut live, rows);
+            live.finish().1
+        };
+        let plain = run(LiveGaitParams::default(), &rows);
+        let low_passed = run(filtered, &rows);
+        assert_eq!(plain.filter, "none");
+        assert_eq!(low_passed.filter, "butterworth:6hz");
+        assert_ne!(plain.parameters, low_passed.parameters);
+        let cadence = low_passed.cadence_steps_per_min.unwrap_or(f64::NAN);
+        assert!((cadence / 105.0 - 1.0).abs() < 0.03, "{low_passed:#?}");
+        let thinned: Vec<_> = rows.iter().step_by(3).cloned().collect();
+        let slow = run(filtered, &thinned);
+        assert!((slow.rate_hz.unwrap() - 10.0).abs() < 0.01, "{slow:#?}");
+        assert_eq!(slow.filter, "none");
+        assert!(slow.reason.is_none(), "{slow:#?}");
     }
 
     /// What the stream reports is what its analysis keeps. A left ankle (and foot) lifted
