@@ -572,8 +572,10 @@ pub const SWING_WINDOW_SECS: f64 = 0.3;
 /// Whether the foot of `event` is seen swinging next to it: its heel stand-in, median of three
 /// frames at each end, travels at least [`MIN_SWING_TRAVEL_M`] along its segment's walking
 /// direction over the [`SWING_WINDOW_SECS`] before a heel strike or after a toe off. The far end
-/// may come up to half the window closer where the track has a gap; when the foot is not seen
-/// there at all, or not at the event, nothing is known and the event stands.
+/// stays inside the event's segment (before it the walker was turning or standing, and the foot
+/// moved along another direction or not at all) and may come up to half the window closer
+/// where the track has a gap or the segment begins or ends; when the foot is not seen there at
+/// all, or not at the event, nothing is known and the event stands.
 pub(crate) fn swing_seen(tracks: &Tracks, segmentation: &Segmentation, event: &GaitEvent) -> bool {
     let Some(segment) = segmentation.segments.get(event.segment) else {
         return true;
@@ -597,14 +599,17 @@ pub(crate) fn swing_seen(tracks: &Tracks, segmentation: &Segmentation, event: &G
     };
     let window = (SWING_WINDOW_SECS * tracks.rate_hz).round().max(2.0) as usize;
     let heel_strike = event.kind == EventKind::HeelStrike;
-    // The far end, from the whole window back towards half of it.
+    // The far end, from the whole window back towards half of it, within the segment.
     let far = (window.div_ceil(2)..=window).rev().find_map(|k| {
         let f = if heel_strike {
             at.checked_sub(k)?
         } else {
             at + k
         };
-        along(f)
+        (segment.first_frame..=segment.last_frame)
+            .contains(&f)
+            .then(|| along(f))
+            .flatten()
     });
     let Some(far) = far else {
         return true;
@@ -691,5 +696,30 @@ mod tests {
             &seg,
             &event(EventKind::HeelStrike, 30.0)
         ));
+    }
+
+    /// The window does not reach out of the event's segment. The last toe off before a turn,
+    /// at frame 40: the foot swings 0.15 m forward until frame 43, where the walking segment
+    /// ends, and is then planted 5 cm behind where it left (the walker turning on it). Measured
+    /// over the whole 0.3 s, into the turn, the foot went backwards and the toe off would be
+    /// taken for a wobble in stance; the segment holds less than half the window after it, so
+    /// nothing is known and the event stands. Inside a segment the window still tells a foot
+    /// that stands from one that swings.
+    #[test]
+    fn the_swing_window_stays_in_the_segment() {
+        let mut x = vec![0.0; 50];
+        for (i, v) in x.iter_mut().enumerate().skip(40) {
+            *v = if i <= 43 {
+                0.05 * (i - 40) as f64
+            } else {
+                -0.05
+            };
+        }
+        let (tracks, mut seg) = walk(&x);
+        let to = event(EventKind::ToeOff, 40.0);
+        assert!(!swing_seen(&tracks, &seg, &to), "into the turn");
+        seg.segments[0].last_frame = 43;
+        assert!(swing_seen(&tracks, &seg, &to));
+        assert!(!swing_seen(&tracks, &seg, &event(EventKind::ToeOff, 25.0)));
     }
 }
