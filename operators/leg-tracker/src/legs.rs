@@ -236,6 +236,15 @@ fn at_distance_below(
     best.unwrap_or_else(|| from + line.down(frame) * len)
 }
 
+/// A foot taken to stand on the floor has its heel raised when its ankle, hung at the held
+/// shank length from the knee, lies this much higher than over a flat sole, metres: in
+/// pre-swing the toes stay on the floor while the heel rises, and the ankle with it (the
+/// rendered walker's rear ankle reaches 0.19 m in double support, 0.07 m over a flat foot). More
+/// than twice the 3–4 cm median knee and ankle errors on the rendered walks, so that a flat
+/// foot's hung ankle, off by its length and the knee's error, is not taken for a raised heel
+/// (at 4 and 5 cm the rendered CMU walk had a frame's legs swapped).
+pub(crate) const HEEL_RAISED_M: f64 = 0.08;
+
 /// Parameters of the leg fit.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct FitInput {
@@ -321,20 +330,21 @@ pub(crate) fn fit_leg(
     let (knee, ankle) = match input.lengths {
         Some((lt, ls)) => {
             let knee = at_distance_below(frame, &thigh, &hip, lt);
-            // A foot on the floor places the ankle over it; a lifted one (pitched, the sole
-            // no reference) hangs at the shank length, but not through the floor: an ankle
-            // hung below it is on a foot that is down, at its height over the floor on the
-            // shank line.
-            let ankle = if on_floor {
+            // A foot flat on the floor places the ankle over it. A lifted one (pitched, the
+            // sole no reference) hangs at the shank length, and so does one standing on its
+            // toes with the heel raised (pre-swing), which counts as on the floor but whose
+            // ankle the shank length puts well above a flat foot's ([`HEEL_RAISED_M`]). Not
+            // through the floor: an ankle hung below it is on a foot that is down, at its
+            // height over the floor on the shank line.
+            let hung = at_distance_below(frame, &shank, &knee, ls);
+            let hung_h = frame.split(&hung.coords).1;
+            let ankle = if on_floor && hung_h <= ankle_h + HEEL_RAISED_M {
                 ankle_free
+            } else if hung_h < 0.0 {
+                let h = input.ankle_above_sole_m;
+                frame.join(&shank.at(h), h)
             } else {
-                let hung = at_distance_below(frame, &shank, &knee, ls);
-                if frame.split(&hung.coords).1 < 0.0 {
-                    let h = input.ankle_above_sole_m;
-                    frame.join(&shank.at(h), h)
-                } else {
-                    hung
-                }
+                hung
             };
             (knee, ankle)
         }
