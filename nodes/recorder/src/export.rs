@@ -164,9 +164,8 @@ pub fn write_trajectory(dir: &Path, trajectory: &Trajectory) -> eyre::Result<()>
     Ok(())
 }
 
-/// The gait report page of the run's fused joints, analysed with the `trigait gait` defaults
-/// for a skeleton stream (low-passed after the cleaning, [`trigait_gait::filter::skeleton_filter`]);
-/// a run without gait parameters gets a page that says why.
+/// The gait report page of the run's fused joints, analysed as the live analysis does
+/// ([`crate::gait::gait_params`]); a run without gait parameters gets a page that says why.
 fn gait_report(clip: &trigait_skeleton::MotionClip) -> String {
     let title = "trigait graph run: fused joints (trajectory.csv)";
     let notes = [format!(
@@ -174,9 +173,10 @@ fn gait_report(clip: &trigait_skeleton::MotionClip) -> String {
         clip.frame_count(),
         clip.rate_hz()
     )];
+    let recorder = crate::gait::gait_params();
     let params = trigait_gait::GaitParams {
-        filter: trigait_gait::filter::skeleton_filter(clip.rate_hz()),
-        ..trigait_gait::GaitParams::default()
+        filter: recorder.filter.or_none_at(clip.rate_hz()),
+        ..recorder
     };
     let page = trigait_gait::Landmarks::from_clip(clip)
         .and_then(|l| trigait_gait::analyse_landmarks(&l, &params))

@@ -101,17 +101,21 @@ enum Message {
     Finish,
 }
 
-/// The live analysis as `trigait gait` runs a skeleton stream and as the final `report.html`
-/// page does: the fused joints low-passed after the cleaning
-/// ([`trigait_gait::filter::SKELETON_FILTER`], none where the stream's rate cannot carry it),
-/// so the events logged and `summary.json` agree with the page, which analyses the run's
-/// trajectory the same way.
+/// The recorder's gait analysis, live and on the final `report.html` page alike: the `trigait
+/// gait` defaults for a skeleton stream, the fused joints low-passed after the cleaning
+/// ([`trigait_gait::filter::SKELETON_FILTER`]; none where the stream's rate cannot carry it,
+/// [`trigait_gait::filter::Filter::or_none_at`]), so the events logged and `summary.json` agree
+/// with the page.
+pub(crate) fn gait_params() -> trigait_gait::GaitParams {
+    trigait_gait::GaitParams {
+        filter: trigait_gait::filter::SKELETON_FILTER,
+        ..trigait_gait::GaitParams::default()
+    }
+}
+
 fn live_params() -> LiveGaitParams {
     LiveGaitParams {
-        gait: trigait_gait::GaitParams {
-            filter: trigait_gait::filter::SKELETON_FILTER,
-            ..trigait_gait::GaitParams::default()
-        },
+        gait: gait_params(),
         ..LiveGaitParams::default()
     }
 }
