@@ -21,6 +21,9 @@ pub struct Args {
     #[arg(short, long, value_name = "OUT")]
     pub output: PathBuf,
     /// Trajectory filter applied before writing: none, butterworth:<f>hz or one-euro.
+    ///
+    /// The file does not record it: `trigait gait` filters joint trajectories at 6 Hz by default,
+    /// so give it `--filter none` for a file filtered here.
     #[arg(long, default_value = "none", value_parser = parse_filter)]
     pub filter: Filter,
 }
