@@ -354,7 +354,10 @@ fn mocap_walks_through_the_renderer() {
 /// six (the mean of the middle two) is 0.111 m, as `trigait legs` reports it; over the five the
 /// SDK tracked, 0.066 m (asserted ≤ 0.075 m). The goals are IoU ≥ 0.85 and a median ≤ 8 cm
 /// against the SDK's mask and skeleton as they are; this test pins the measured state (IoU ≥
-/// 0.835, median ≤ 0.12 m) so it cannot get worse unnoticed.
+/// 0.835, median ≤ 0.12 m) so it cannot get worse unnoticed. It also prints which leg each
+/// skeleton puts nearer the sensor, joint by joint: the SDK's left hip is the far one and its
+/// left ankle the near one (its chains cross), and how far the SDK's knees move over the next
+/// two frames.
 #[test]
 fn real_frame_against_the_sdk() {
     let (Some(depth), Some(mask), Some(skel)) = (
@@ -442,6 +445,70 @@ fn real_frame_against_the_sdk() {
     assert_eq!(errors.len(), 6, "joints found: {:?}", out.joints);
     let m = median(errors);
     eprintln!("median error against the SDK {m:.3} m");
+    // Which leg is nearer the sensor, joint by joint, in the SDK's skeleton and the tracker's:
+    // how much farther (horizontally, along the line of sight to the mid-hip) the left joint
+    // is than the right one. The SDK's left hip is the farther one and its left ankle the
+    // nearer one: its chains cross between hips and ankles, where the depth shows the near leg
+    // standing straight from its hip to the flat foot.
+    let sdk_joints: Vec<(Joint, Point3<f64>)> = sdk[0]
+        .joints
+        .iter()
+        .map(|j| (j.joint, j.position_in_kinect))
+        .collect();
+    let tracker_joints: Vec<(Joint, Point3<f64>)> = out
+        .joints
+        .iter()
+        .map(|j| (j.joint, j.position_in_kinect))
+        .collect();
+    let find = |js: &[(Joint, Point3<f64>)], j: Joint| js.iter().find(|x| x.0 == j).map(|x| x.1);
+    let up = floor.up_in_kinect;
+    let (Some(hl), Some(hr)) = (
+        find(&sdk_joints, Joint::HipLeft),
+        find(&sdk_joints, Joint::HipRight),
+    ) else {
+        panic!("SDK hips missing");
+    };
+    let sight = 0.5 * (hl.coords + hr.coords);
+    let sight = (sight - up * up.dot(&sight)).normalize();
+    for (name, js) in [("SDK", &sdk_joints), ("tracker", &tracker_joints)] {
+        let line: Vec<String> = [
+            ("hips", Joint::HipLeft, Joint::HipRight),
+            ("knees", Joint::KneeLeft, Joint::KneeRight),
+            ("ankles", Joint::AnkleLeft, Joint::AnkleRight),
+        ]
+        .iter()
+        .filter_map(|(what, l, r)| {
+            let d = sight.dot(&(find(js, *l)? - find(js, *r)?));
+            Some(format!("{what} {:+.1} cm", 100.0 * d))
+        })
+        .collect();
+        eprintln!("{name}: left farther than right by {}", line.join(", "));
+    }
+    // The SDK's knees over the next two frames (66 ms).
+    for later in &sdk[1..3] {
+        let moved: Vec<String> = [Joint::KneeLeft, Joint::KneeRight]
+            .iter()
+            .filter_map(|&j| {
+                let at = |f: &trigait_motion::SdkFrame| {
+                    f.joints
+                        .iter()
+                        .find(|x| x.joint == j)
+                        .map(|x| x.position_in_kinect)
+                };
+                let d = at(later)? - at(&sdk[0])?;
+                Some(format!(
+                    "{j:?} {:.1} cm ({:+.1} cm up)",
+                    100.0 * d.norm(),
+                    100.0 * up.dot(&d)
+                ))
+            })
+            .collect();
+        eprintln!(
+            "SDK frame {}: knees moved {}",
+            later.frame_number,
+            moved.join(", ")
+        );
+    }
     assert!(m <= 0.12, "median {m:.3} m");
 }
 
