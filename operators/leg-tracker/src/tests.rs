@@ -83,16 +83,19 @@ struct Score {
     swaps: usize,
 }
 
-/// Renders `lap` on the thesis rig for `secs` at 30 Hz and tracks it on every sensor: per
-/// sensor the median error per joint class against the rendered joint centres, and the frames
-/// whose legs are swapped.
-fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64) -> Vec<Score> {
+/// The sensor noise seed of the tests that pin one deterministic run.
+const NOISE_SEED: u64 = 7;
+
+/// Renders `lap` on the thesis rig for `secs` at 30 Hz, with the sensor noise drawn from
+/// `seed`, and tracks it on every sensor: per sensor the median error per joint class against
+/// the rendered joint centres, and the frames whose legs are swapped.
+fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score> {
     let rig = Rig::builtin("thesis").unwrap();
     let frames = (secs * RATE_HZ) as usize;
     let mut scores = Vec::new();
     for sensor in &rig.sensors {
         let pose = sensor.world_from_kinect;
-        let mut renderer = seeded_renderer(&pose, 7);
+        let mut renderer = seeded_renderer(&pose, seed);
         let mut tracker = LegTracker::new(config_for(&pose)).unwrap();
         let mut errors: [Vec<f64>; 3] = Default::default();
         // The same split by the reported state, and the signed height error of each class.
@@ -216,12 +219,13 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64) -> Vec<Score> {
 /// Simulated depth of the walker on the thesis rig for 10 s at 30 Hz: for every sensor the
 /// tracked hips, knees and ankles are within 4 cm (median per joint class) of the rendered
 /// joint centres, and the left and right legs are never swapped (outside the 0.35 s after the
-/// simulated lap's instantaneous turn). Measured: medians 2.1–3.9 cm, no swap. The feet are
-/// pinned to their measured state (see [`FOOT_MEDIAN_M`]).
+/// simulated lap's instantaneous turn). Measured: medians 2.1–3.9 cm, no swap on this noise
+/// seed (other seeds do swap: [`swapped_frames_over_noise_seeds`]). The feet are pinned to
+/// their measured state (see [`FOOT_MEDIAN_M`]).
 #[test]
 fn walker_on_the_thesis_rig() {
     let mut failures = Vec::new();
-    for s in score_on_the_thesis_rig(&lap(), 10.0) {
+    for s in score_on_the_thesis_rig(&lap(), 10.0, NOISE_SEED) {
         if s.reported < s.asked * 8 / 10 {
             failures.push(format!("{}: {} joints reported", s.sensor, s.reported));
         }
@@ -287,6 +291,20 @@ fn a_lower_leg_seen_past_the_other_leg_stays_in_the_mask() {
     assert!(in_mask * 10 >= rendered * 7, "{in_mask} of {rendered}");
 }
 
+/// The recordings the walker is checked against, played there and back through the renderer.
+const MOCAP_WALKS: [&str; 2] = [
+    "mocap-cmu-07_01/07_01.c3d",
+    "mocap-opensim-rajagopal-walk/Rajagopal__motion_capture_walk.trc",
+];
+
+/// A mocap walk from the shared data as a lap there and back on the thesis rig's walkway, or
+/// `None` when the data is absent outside CI.
+fn mocap_lap(file: &str) -> Option<MotionClip> {
+    let path = trigait_test_data::shared_file(file)?;
+    let clip = trigait_motion::load_motion(&path).unwrap();
+    Some(there_and_back(&clip.placed_on_walkway()).unwrap())
+}
+
 /// Real walks played through the renderer: CMU 07_01 and the OpenSim Rajagopal walk (joint
 /// centres from their markers), each there and back on the walkway of the thesis rig, 10 s.
 /// The goal is the walker's: ≤ 4 cm median per joint class on every sensor, no swap. It is
@@ -295,21 +313,16 @@ fn a_lower_leg_seen_past_the_other_leg_stays_in_the_mask() {
 /// 3.2 cm, 0. Rajagopal k1 4.6 / 3.4 / 2.8 cm, 0; k2 4.6 / 3.6 / 3.1 cm, 0; k3 4.4 / 3.3 / 2.9
 /// cm, 0; feet (median) 5.7–5.8 cm (CMU), 8.1–8.4 cm (Rajagopal). The renderer and the tracker
 /// are deterministic, so the test pins that state (≤ 5.5 cm, no swapped frame, feet ≤ 9 cm) and
-/// prints where the goal is missed.
+/// prints where the goal is missed; [`swapped_frames_over_noise_seeds`] counts the swaps over
+/// other draws of the sensor noise.
 #[test]
 fn mocap_walks_through_the_renderer() {
-    let files = [
-        "mocap-cmu-07_01/07_01.c3d",
-        "mocap-opensim-rajagopal-walk/Rajagopal__motion_capture_walk.trc",
-    ];
     let (mut failures, mut missed) = (Vec::new(), Vec::new());
-    for file in files {
-        let Some(path) = trigait_test_data::shared_file(file) else {
+    for file in MOCAP_WALKS {
+        let Some(lap) = mocap_lap(file) else {
             return;
         };
-        let clip = trigait_motion::load_motion(&path).unwrap();
-        let lap = there_and_back(&clip.placed_on_walkway()).unwrap();
-        for s in score_on_the_thesis_rig(&lap, 10.0) {
+        for s in score_on_the_thesis_rig(&lap, 10.0, NOISE_SEED) {
             for (m, what) in s.medians.iter().zip(["hip", "knee", "ankle"]) {
                 let line = format!("{file} {}: median {what} error {m:.3} m", s.sensor);
                 if *m > 0.055 {
@@ -337,6 +350,39 @@ fn mocap_walks_through_the_renderer() {
     }
     eprintln!("goal (4 cm) missed: {missed:#?}");
     assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// The walker and the two mocap walks on the thesis rig over three more draws of the sensor
+/// noise (seeds 1–3; the other tests run seed 7): the frames whose legs are swapped, per walk
+/// and sensor. The goal is none, and seed 7 has none, but that is one draw: seeds 1–3 swap
+/// 48 of the 8100 frames (0.6 %), 32 of them on k1, mostly in runs of several consecutive
+/// frames. The test pins that (≤ 52) and prints each run's count and medians.
+#[test]
+fn swapped_frames_over_noise_seeds() {
+    let mut laps = vec![("walker".to_string(), lap())];
+    for file in MOCAP_WALKS {
+        let Some(lap) = mocap_lap(file) else {
+            return;
+        };
+        laps.push((file.to_string(), lap));
+    }
+    let mut total = 0;
+    for seed in 1..=3 {
+        for (name, lap) in &laps {
+            for s in score_on_the_thesis_rig(lap, 10.0, seed) {
+                eprintln!(
+                    "seed {seed} {name} {}: {} swapped frames; median hip / knee / ankle {:.3} / {:.3} / {:.3} m",
+                    s.sensor, s.swaps, s.medians[0], s.medians[1], s.medians[2]
+                );
+                total += s.swaps;
+            }
+        }
+    }
+    eprintln!(
+        "swapped frames over seeds 1-3: {total} of {}",
+        3 * laps.len() * 3 * 300
+    );
+    assert!(total <= 52, "{total} swapped frames");
 }
 
 /// The real Kinect v2 frame of a person in a room, against the SDK of the same instant.
