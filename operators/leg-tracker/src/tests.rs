@@ -494,52 +494,43 @@ fn real_frame_against_the_sdk() {
     // is than the right one. The SDK's left hip is the farther one and its left ankle the
     // nearer one: its chains cross between hips and ankles, where the depth shows the near leg
     // standing straight from its hip to the flat foot.
-    let sdk_joints: Vec<(Joint, Point3<f64>)> = sdk[0]
-        .joints
-        .iter()
-        .map(|j| (j.joint, j.position_in_kinect))
-        .collect();
-    let tracker_joints: Vec<(Joint, Point3<f64>)> = out
-        .joints
-        .iter()
-        .map(|j| (j.joint, j.position_in_kinect))
-        .collect();
-    let find = |js: &[(Joint, Point3<f64>)], j: Joint| js.iter().find(|x| x.0 == j).map(|x| x.1);
+    let sdk_at = |f: &trigait_motion::SdkFrame, j: Joint| {
+        f.joints
+            .iter()
+            .find(|x| x.joint == j)
+            .map(|x| x.position_in_kinect)
+    };
     let up = floor.up_in_kinect;
     let (Some(hl), Some(hr)) = (
-        find(&sdk_joints, Joint::HipLeft),
-        find(&sdk_joints, Joint::HipRight),
+        sdk_at(&sdk[0], Joint::HipLeft),
+        sdk_at(&sdk[0], Joint::HipRight),
     ) else {
         panic!("SDK hips missing");
     };
     let sight = 0.5 * (hl.coords + hr.coords);
     let sight = (sight - up * up.dot(&sight)).normalize();
-    for (name, js) in [("SDK", &sdk_joints), ("tracker", &tracker_joints)] {
+    let report = |name: &str, at: &dyn Fn(Joint) -> Option<Point3<f64>>| {
         let line: Vec<String> = [
             ("hips", Joint::HipLeft, Joint::HipRight),
             ("knees", Joint::KneeLeft, Joint::KneeRight),
             ("ankles", Joint::AnkleLeft, Joint::AnkleRight),
         ]
         .iter()
-        .filter_map(|(what, l, r)| {
-            let d = sight.dot(&(find(js, *l)? - find(js, *r)?));
+        .filter_map(|&(what, l, r)| {
+            let d = sight.dot(&(at(l)? - at(r)?));
             Some(format!("{what} {:+.1} cm", 100.0 * d))
         })
         .collect();
         eprintln!("{name}: left farther than right by {}", line.join(", "));
-    }
+    };
+    report("SDK", &|j| sdk_at(&sdk[0], j));
+    report("tracker", &|j| out.joint(j).map(|t| t.position_in_kinect));
     // The SDK's knees over the next two frames (66 ms).
     for later in &sdk[1..3] {
         let moved: Vec<String> = [Joint::KneeLeft, Joint::KneeRight]
             .iter()
             .filter_map(|&j| {
-                let at = |f: &trigait_motion::SdkFrame| {
-                    f.joints
-                        .iter()
-                        .find(|x| x.joint == j)
-                        .map(|x| x.position_in_kinect)
-                };
-                let d = at(later)? - at(&sdk[0])?;
+                let d = sdk_at(later, j)? - sdk_at(&sdk[0], j)?;
                 Some(format!(
                     "{j:?} {:.1} cm ({:+.1} cm up)",
                     100.0 * d.norm(),
