@@ -381,6 +381,19 @@ const CROSSING_M: f64 = 0.08;
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
 const MIN_WALK_M: f64 = 0.1;
+/// Lower legs whose point centres lie farther apart than this are two legs, metres (one leg's
+/// points split in two lie about a leg's width apart).
+const TWO_LEGS_M: f64 = 0.2;
+/// Frames a chain may get no points before the legs are split afresh (0.1 s at 30 Hz): a leg
+/// passing behind the other for a frame or two keeps coasting. Splitting after one missed frame
+/// also split the legs in the frames right after the simulated walker's instant 180° spin,
+/// before the sides had followed it, and put each ankle on the other leg for 0.1 s.
+const MISSED_BEFORE_SPLIT: usize = 3;
+/// The sideways offset between the hips that may turn the sides round, metres: a pelvis is
+/// 15–20 cm wide between its hip joint centres, and offsets outside this came from a hip the
+/// fit had put off the body or onto the other hip.
+const SIDE_FLIP_MIN_M: f64 = 0.06;
+const SIDE_FLIP_MAX_M: f64 = 0.30;
 
 #[derive(Debug, Clone)]
 struct LegTrack {
@@ -652,38 +665,45 @@ impl LegTracker {
                 })
             }
         };
-        let mut bands = [
-            vec![Band::default(); n_bands],
-            vec![Band::default(); n_bands],
-        ];
-        // Each leg's points low enough to be its foot, for the `Foot` joint.
-        let mut low: [Vec<(Vector2<f64>, f64)>; 2] = [Vec::new(), Vec::new()];
-        // A cut-off limb is one leg's: all of it goes to the chain most of its points go to
-        // (point by point, a limb passing the other leg's predicted axis would be cut in two).
-        let mut votes =
-            vec![[0_usize; 2]; usize::from(limb_of.iter().copied().max().unwrap_or(0)) + 1];
-        for ((p, h), &l) in pts.iter().zip(&limb_of) {
-            if l > 0
-                && let Some(k) = assign(p, *h)
-            {
-                votes[usize::from(l)][k] += 1;
-            }
-        }
-        for ((p, h), &l) in pts.iter().zip(&limb_of) {
-            let [a, b] = votes[usize::from(l)];
-            let chain = if l == 0 || a == b {
-                assign(p, *h)
-            } else {
-                Some(usize::from(b > a))
-            };
-            if let Some(k) = chain {
-                let b = ((h / BAND_M).floor().max(0.0) as usize).min(n_bands - 1);
-                bands[k][b].add(p, *h);
-                if *h < FOOT_REGION_M {
-                    low[k].push((*p, *h));
+        // Each chain's points by height band, and its points low enough to be its foot (for
+        // the `Foot` joint).
+        type Split = ([Vec<Band>; 2], [Vec<(Vector2<f64>, f64)>; 2]);
+        let split_by = |assign: &Assign| -> Split {
+            let mut bands = [
+                vec![Band::default(); n_bands],
+                vec![Band::default(); n_bands],
+            ];
+            let mut low: [Vec<(Vector2<f64>, f64)>; 2] = [Vec::new(), Vec::new()];
+            // A cut-off limb is one leg's: all of it goes to the chain most of its points go
+            // to (point by point, a limb passing the other leg's predicted axis would be cut
+            // in two).
+            let mut votes =
+                vec![[0_usize; 2]; usize::from(limb_of.iter().copied().max().unwrap_or(0)) + 1];
+            for ((p, h), &l) in pts.iter().zip(&limb_of) {
+                if l > 0
+                    && let Some(k) = assign(p, *h)
+                {
+                    votes[usize::from(l)][k] += 1;
                 }
             }
-        }
+            for ((p, h), &l) in pts.iter().zip(&limb_of) {
+                let [a, b] = votes[usize::from(l)];
+                let chain = if l == 0 || a == b {
+                    assign(p, *h)
+                } else {
+                    Some(usize::from(b > a))
+                };
+                if let Some(k) = chain {
+                    let b = ((h / BAND_M).floor().max(0.0) as usize).min(n_bands - 1);
+                    bands[k][b].add(p, *h);
+                    if *h < FOOT_REGION_M {
+                        low[k].push((*p, *h));
+                    }
+                }
+            }
+            (bands, low)
+        };
+        let (bands, mut low) = split_by(&*assign);
         let min_pts = self.config.min_band_points as f64;
         let params_floor_tol = self.config.segment.floor_tolerance_m;
         let ankle_above = self.config.ankle_height_ratio * stature;
@@ -809,6 +829,47 @@ impl LegTracker {
                 *l1 = keep1.into_iter().chain(move0).collect();
             }
         }
+        // A chain that has got no points for a few frames while two legs stand apart has lost
+        // its leg: its prediction went off the body (after a sharp turn, both legs fell to the
+        // other chain) and it would coast, wrong, until it is dropped. Split the legs afresh,
+        // as at the start, and keep the split when it shows two thighs: the fitted chain
+        // takes the leg nearer its fit, the lost chain the other. A leg hidden behind the
+        // other shows no second thigh, so it keeps coasting with the pelvis.
+        let lost = match &fits {
+            [Some(_), None] => Some(1),
+            [None, Some(_)] => Some(0),
+            _ => None,
+        };
+        if let Some(lost) = lost
+            && legs_now
+                .as_ref()
+                .is_some_and(|l| l[lost].missed >= MISSED_BEFORE_SPLIT)
+            && let Some((c0, c1)) = two_means(&pts, 0.1 * hip_h, 0.6 * hip_h)
+            && (c0 - c1).norm() > TWO_LEGS_M
+        {
+            let (split, split_low) = split_by(&move |p: &Vector2<f64>, _h: f64| {
+                Some(usize::from((p - c1).norm() < (p - c0).norm()))
+            });
+            let (alt, alt_floor, alt_soles) = fit_both(&split);
+            if let ([Some(a), Some(b)], Some(kept)) = (&alt, fits[1 - lost])
+                && a.thigh_seen >= self.config.tracked_share
+                && b.thigh_seen >= self.config.tracked_share
+            {
+                // `a` goes to the fitted chain when its hip is the nearer one.
+                let a_kept =
+                    (a.pose.hip - kept.pose.hip).norm() <= (b.pose.hip - kept.pose.hip).norm();
+                let order = if a_kept == (lost == 1) {
+                    [0, 1]
+                } else {
+                    [1, 0]
+                };
+                fits = order.map(|i| alt[i]);
+                on_floor_legs = order.map(|i| alt_floor[i]);
+                soles = order.map(|i| alt_soles[i]);
+                let [l0, l1] = split_low;
+                low = if order[0] == 0 { [l0, l1] } else { [l1, l0] };
+            }
+        }
         if self.held.is_none() {
             for (f, on_floor) in fits.iter().zip(on_floor_legs) {
                 let Some(f) = f else { continue };
@@ -887,7 +948,7 @@ impl LegTracker {
         if self.pelvis_history.len() > PELVIS_HISTORY {
             self.pelvis_history.remove(0);
         }
-        self.decide_sides(&ff, &tracks, &fits);
+        self.decide_sides(&ff, &tracks, &fits, piece);
         // Emit.
         let Some(left) = self.left else {
             self.legs = Some(tracks);
@@ -998,12 +1059,15 @@ impl LegTracker {
     /// the last frames or, standing still, from the feet (they point forward). Re-decided
     /// whenever the person clearly walks, so a turn on the spot does not swap the sides. Both
     /// the motion and the sides are read off hips whose thighs were seen: at start-up with one
-    /// leg hidden, its guessed hip lay 0.35 m off and flipped the sides for 10 frames.
+    /// leg hidden, its guessed hip lay 0.35 m off and flipped the sides for 10 frames. Once
+    /// decided, the sides turn round only on hips that both lie on the person's mask (`piece`)
+    /// about a pelvis width apart.
     fn decide_sides(
         &mut self,
         ff: &FloorFrame,
         tracks: &[LegTrack; 2],
         fits: &[Option<LegFit>; 2],
+        piece: &[u8],
     ) {
         // The pelvis's travel over the window, from the hips seen at both of its ends (the
         // pelvis is rigid, so either hip's travel is the walk's).
@@ -1058,7 +1122,29 @@ impl LegTracker {
         let lateral = ff.up.cross(&forward.normalize());
         let d = lateral.dot(&(tracks[0].pose.hip - tracks[1].pose.hip));
         if d.abs() > 0.03 {
-            self.left = Some(if d > 0.0 { 0 } else { 1 });
+            let left = if d > 0.0 { 0 } else { 1 };
+            // Turning the sides round takes hips that both lie on the person (their pixels
+            // on its mask, give or take two) about a pelvis width apart: the sides flipped
+            // in plain walking when one hip had left the body or sat on the other.
+            let on_person = |p: &Point3<f64>| {
+                self.config.camera.project(p).is_some_and(|(u, v)| {
+                    let (u, v) = (u.floor() as i64, v.floor() as i64);
+                    (-2..=2).any(|dv| {
+                        (-2..=2).any(|du| {
+                            let (x, y) = (u + du, v + dv);
+                            (0..WIDTH as i64).contains(&x)
+                                && (0..HEIGHT as i64).contains(&y)
+                                && piece[y as usize * WIDTH + x as usize] > 0
+                        })
+                    })
+                })
+            };
+            let plausible = (SIDE_FLIP_MIN_M..=SIDE_FLIP_MAX_M).contains(&d.abs())
+                && on_person(&tracks[0].pose.hip)
+                && on_person(&tracks[1].pose.hip);
+            if self.left.is_none_or(|l| l == left) || plausible {
+                self.left = Some(left);
+            }
         }
     }
 }
