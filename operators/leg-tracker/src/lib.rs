@@ -389,11 +389,6 @@ const TWO_LEGS_M: f64 = 0.2;
 /// also split the legs in the frames right after the simulated walker's instant 180° spin,
 /// before the sides had followed it, and put each ankle on the other leg for 0.1 s.
 const MISSED_BEFORE_SPLIT: usize = 3;
-/// The sideways offset between the hips that may turn the sides round, metres: a pelvis is
-/// 15–20 cm wide between its hip joint centres, and offsets outside this came from a hip the
-/// fit had put off the body or onto the other hip.
-const SIDE_FLIP_MIN_M: f64 = 0.06;
-const SIDE_FLIP_MAX_M: f64 = 0.30;
 
 #[derive(Debug, Clone)]
 struct LegTrack {
@@ -948,7 +943,7 @@ impl LegTracker {
         if self.pelvis_history.len() > PELVIS_HISTORY {
             self.pelvis_history.remove(0);
         }
-        self.decide_sides(&ff, &tracks, &fits, piece);
+        self.decide_sides(&ff, &tracks, &fits);
         // Emit.
         let Some(left) = self.left else {
             self.legs = Some(tracks);
@@ -1059,15 +1054,12 @@ impl LegTracker {
     /// the last frames or, standing still, from the feet (they point forward). Re-decided
     /// whenever the person clearly walks, so a turn on the spot does not swap the sides. Both
     /// the motion and the sides are read off hips whose thighs were seen: at start-up with one
-    /// leg hidden, its guessed hip lay 0.35 m off and flipped the sides for 10 frames. Once
-    /// decided, the sides turn round only on hips that both lie on the person's mask (`piece`)
-    /// about a pelvis width apart.
+    /// leg hidden, its guessed hip lay 0.35 m off and flipped the sides for 10 frames.
     fn decide_sides(
         &mut self,
         ff: &FloorFrame,
         tracks: &[LegTrack; 2],
         fits: &[Option<LegFit>; 2],
-        piece: &[u8],
     ) {
         // The pelvis's travel over the window, from the hips seen at both of its ends (the
         // pelvis is rigid, so either hip's travel is the walk's).
@@ -1122,29 +1114,7 @@ impl LegTracker {
         let lateral = ff.up.cross(&forward.normalize());
         let d = lateral.dot(&(tracks[0].pose.hip - tracks[1].pose.hip));
         if d.abs() > 0.03 {
-            let left = if d > 0.0 { 0 } else { 1 };
-            // Turning the sides round takes hips that both lie on the person (their pixels
-            // on its mask, give or take two) about a pelvis width apart: the sides flipped
-            // in plain walking when one hip had left the body or sat on the other.
-            let on_person = |p: &Point3<f64>| {
-                self.config.camera.project(p).is_some_and(|(u, v)| {
-                    let (u, v) = (u.floor() as i64, v.floor() as i64);
-                    (-2..=2).any(|dv| {
-                        (-2..=2).any(|du| {
-                            let (x, y) = (u + du, v + dv);
-                            (0..WIDTH as i64).contains(&x)
-                                && (0..HEIGHT as i64).contains(&y)
-                                && piece[y as usize * WIDTH + x as usize] > 0
-                        })
-                    })
-                })
-            };
-            let plausible = (SIDE_FLIP_MIN_M..=SIDE_FLIP_MAX_M).contains(&d.abs())
-                && on_person(&tracks[0].pose.hip)
-                && on_person(&tracks[1].pose.hip);
-            if self.left.is_none_or(|l| l == left) || plausible {
-                self.left = Some(left);
-            }
+            self.left = Some(if d > 0.0 { 0 } else { 1 });
         }
     }
 }
