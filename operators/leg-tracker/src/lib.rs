@@ -354,6 +354,9 @@ pub enum Error {
 /// Which leg chain a point (horizontal position, height) belongs to, if any.
 type Assign = dyn Fn(&Vector2<f64>, f64) -> Option<usize>;
 
+/// Each chain's points by height band, and its points low enough to be its foot.
+type Split = ([Vec<Band>; 2], [Vec<(Vector2<f64>, f64)>; 2]);
+
 /// An ankle that moved less than this since the last frame stands (0.45 m/s at 30 Hz), metres.
 const STILL_ANKLE_M: f64 = 0.015;
 
@@ -384,10 +387,9 @@ const MIN_WALK_M: f64 = 0.1;
 /// Lower legs whose point centres lie farther apart than this are two legs, metres (one leg's
 /// points split in two lie about a leg's width apart).
 const TWO_LEGS_M: f64 = 0.2;
-/// Frames a chain may get no points before the legs are split afresh (0.1 s at 30 Hz): a leg
-/// passing behind the other for a frame or two keeps coasting. Splitting after one missed frame
-/// also split the legs in the frames right after the simulated walker's instant 180° spin,
-/// before the sides had followed it, and put each ankle on the other leg for 0.1 s.
+/// Frames a chain may go without a fit before the legs are split afresh (0.1 s at 30 Hz): a
+/// leg that passes behind the other for a frame or two coasts through rather than being split
+/// off the leg in front.
 const MISSED_BEFORE_SPLIT: usize = 3;
 
 #[derive(Debug, Clone)]
@@ -655,14 +657,11 @@ impl LegTracker {
                 let Some((c0, c1)) = two_means(&pts, 0.1 * hip_h, 0.6 * hip_h) else {
                     return self.coast(&ff, out);
                 };
-                Box::new(move |p: &Vector2<f64>, _h: f64| {
-                    Some(usize::from((p - c1).norm() < (p - c0).norm()))
-                })
+                Box::new(nearer_mean(c0, c1))
             }
         };
         // Each chain's points by height band, and its points low enough to be its foot (for
         // the `Foot` joint).
-        type Split = ([Vec<Band>; 2], [Vec<(Vector2<f64>, f64)>; 2]);
         let split_by = |assign: &Assign| -> Split {
             let mut bands = [
                 vec![Band::default(); n_bands],
@@ -824,7 +823,23 @@ impl LegTracker {
                 *l1 = keep1.into_iter().chain(move0).collect();
             }
         }
-        // A chain that has got no points for a few frames while two legs stand apart has lost
+        // A leg that shows less than the tracked share of both its thigh and its shank while
+        // the other is seen whole is mostly behind that other leg: the few points the nearest
+        // predicted axis gives it fit a leg that drifts onto the one in front, and the chains
+        // then exchange lower legs. It coasts with the pelvis instead, as an unseen leg does.
+        let share = self.config.tracked_share;
+        let whole =
+            |f: &Option<LegFit>| f.is_some_and(|f| f.thigh_seen >= share && f.shank_seen >= share);
+        let mostly_hidden =
+            |f: &Option<LegFit>| f.is_some_and(|f| f.thigh_seen < share && f.shank_seen < share);
+        if legs_now.is_some() {
+            for k in 0..2 {
+                if mostly_hidden(&fits[k]) && whole(&fits[1 - k]) {
+                    fits[k] = None;
+                }
+            }
+        }
+        // A chain that has had no fit for a few frames while two legs stand apart has lost
         // its leg: its prediction went off the body (after a sharp turn, both legs fell to the
         // other chain) and it would coast, wrong, until it is dropped. Split the legs afresh,
         // as at the start, and keep the split when it shows two thighs: the fitted chain
@@ -842,27 +857,27 @@ impl LegTracker {
             && let Some((c0, c1)) = two_means(&pts, 0.1 * hip_h, 0.6 * hip_h)
             && (c0 - c1).norm() > TWO_LEGS_M
         {
-            let (split, split_low) = split_by(&move |p: &Vector2<f64>, _h: f64| {
-                Some(usize::from((p - c1).norm() < (p - c0).norm()))
-            });
-            let (alt, alt_floor, alt_soles) = fit_both(&split);
+            let (resplit, mut resplit_low) = split_by(&nearer_mean(c0, c1));
+            let (mut alt, mut alt_floor, mut alt_soles) = fit_both(&resplit);
             if let ([Some(a), Some(b)], Some(kept)) = (&alt, fits[1 - lost])
-                && a.thigh_seen >= self.config.tracked_share
-                && b.thigh_seen >= self.config.tracked_share
+                && a.thigh_seen >= share
+                && b.thigh_seen >= share
             {
-                // `a` goes to the fitted chain when its hip is the nearer one.
-                let a_kept =
+                // The new fits come as (a, b); `a` goes to the kept chain if its hip is the
+                // nearer one, else to the lost chain.
+                let a_nearer =
                     (a.pose.hip - kept.pose.hip).norm() <= (b.pose.hip - kept.pose.hip).norm();
-                let order = if a_kept == (lost == 1) {
-                    [0, 1]
-                } else {
-                    [1, 0]
-                };
-                fits = order.map(|i| alt[i]);
-                on_floor_legs = order.map(|i| alt_floor[i]);
-                soles = order.map(|i| alt_soles[i]);
-                let [l0, l1] = split_low;
-                low = if order[0] == 0 { [l0, l1] } else { [l1, l0] };
+                let a_chain = if a_nearer { 1 - lost } else { lost };
+                if a_chain == 1 {
+                    alt.swap(0, 1);
+                    alt_floor.swap(0, 1);
+                    alt_soles.swap(0, 1);
+                    resplit_low.swap(0, 1);
+                }
+                fits = alt;
+                on_floor_legs = alt_floor;
+                soles = alt_soles;
+                low = resplit_low;
             }
         }
         if self.held.is_none() {
@@ -885,7 +900,6 @@ impl LegTracker {
         // hip's step, as an unseen leg does below. The knee and ankle stay where the seen
         // shank put them (the hip-knee distance is then not the held thigh length; both
         // joints are reported inferred).
-        let share = self.config.tracked_share;
         if let Some(old) = &self.legs {
             let thigh_seen = |f: &Option<LegFit>| f.is_some_and(|f| f.thigh_seen >= share);
             for k in 0..2 {
@@ -1123,6 +1137,11 @@ impl LegTracker {
 /// hip step from its track to its fit, if it was fitted (the pelvis is rigid).
 fn pelvis_step(old: &[LegTrack; 2], fits: &[Option<LegFit>; 2], k: usize) -> Option<Vector3<f64>> {
     fits[1 - k].map(|f| f.pose.hip - old[1 - k].pose.hip)
+}
+
+/// The assignment of a point to the nearer of two means (0 or 1), whatever its height.
+fn nearer_mean(c0: Vector2<f64>, c1: Vector2<f64>) -> impl Fn(&Vector2<f64>, f64) -> Option<usize> {
+    move |p: &Vector2<f64>, _h: f64| Some(usize::from((p - c1).norm() < (p - c0).norm()))
 }
 
 /// Two-means of the horizontal positions of the points between heights `lo` and `hi`, started
