@@ -305,6 +305,15 @@ fn mocap_lap(file: &str) -> Option<MotionClip> {
     Some(there_and_back(&clip.placed_on_walkway()).unwrap())
 }
 
+/// The walker's lap and both mocap laps, named, or `None` when the data is absent outside CI.
+fn all_laps() -> Option<Vec<(String, MotionClip)>> {
+    let mut laps = vec![("walker".to_string(), lap())];
+    for file in MOCAP_WALKS {
+        laps.push((file.to_string(), mocap_lap(file)?));
+    }
+    Some(laps)
+}
+
 /// Real walks played through the renderer: CMU 07_01 and the OpenSim Rajagopal walk (joint
 /// centres from their markers), each there and back on the walkway of the thesis rig, 10 s.
 /// The goal is the walker's: ≤ 4 cm median per joint class on every sensor, no swap. It is
@@ -361,13 +370,9 @@ fn mocap_walks_through_the_renderer() {
 /// each run's count and medians; [`over_ten_noise_seeds`] measures more.
 #[test]
 fn swapped_frames_over_noise_seeds() {
-    let mut laps = vec![("walker".to_string(), lap())];
-    for file in MOCAP_WALKS {
-        let Some(lap) = mocap_lap(file) else {
-            return;
-        };
-        laps.push((file.to_string(), lap));
-    }
+    let Some(laps) = all_laps() else {
+        return;
+    };
     let (mut total, mut frames) = (0, 0);
     for seed in 1..=3 {
         for (name, lap) in &laps {
@@ -877,13 +882,9 @@ fn a_still_person_gives_still_joints() {
 #[test]
 #[ignore = "a measurement run by hand, about 2 minutes"]
 fn over_ten_noise_seeds() {
-    let mut laps = vec![("walker".to_string(), lap())];
-    for file in MOCAP_WALKS {
-        let Some(lap) = mocap_lap(file) else {
-            return;
-        };
-        laps.push((file.to_string(), lap));
-    }
+    let Some(laps) = all_laps() else {
+        return;
+    };
     let seeds: Vec<u64> = (1..=10).collect();
     let runs = std::sync::Mutex::new(Vec::new());
     std::thread::scope(|scope| {
