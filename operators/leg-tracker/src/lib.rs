@@ -391,6 +391,10 @@ const TWO_LEGS_M: f64 = 0.2;
 /// leg that passes behind the other for a frame or two coasts through rather than being split
 /// off the leg in front.
 const MISSED_BEFORE_SPLIT: usize = 3;
+/// A knee this near the other leg's, on a leg whose thigh is mostly unseen, was fitted to the
+/// other leg's points, metres (walking knees pass as close as 14 cm, so the thigh must be
+/// mostly unseen as well).
+const HIDDEN_KNEE_M: f64 = 0.15;
 
 #[derive(Debug, Clone)]
 struct LegTrack {
@@ -823,18 +827,24 @@ impl LegTracker {
                 *l1 = keep1.into_iter().chain(move0).collect();
             }
         }
-        // A leg that shows less than the tracked share of both its thigh and its shank while
-        // the other is seen whole is mostly behind that other leg: the few points the nearest
-        // predicted axis gives it fit a leg that drifts onto the one in front, and the chains
-        // then exchange lower legs. It coasts with the pelvis instead, as an unseen leg does.
+        // A leg whose thigh shows less than the tracked share while the other leg is seen
+        // whole is mostly behind that other leg when its shank shows little too, or when its
+        // knee came out beside the other's: the few points the nearest predicted axis gives it
+        // fit a leg that drifts onto the one in front, and the chains then exchange lower legs.
+        // It coasts with the pelvis instead, as an unseen leg does.
         let share = self.config.tracked_share;
         let whole =
             |f: &Option<LegFit>| f.is_some_and(|f| f.thigh_seen >= share && f.shank_seen >= share);
-        let mostly_hidden =
-            |f: &Option<LegFit>| f.is_some_and(|f| f.thigh_seen < share && f.shank_seen < share);
+        let behind = |f: &Option<LegFit>, other: &Option<LegFit>| match (f, other) {
+            (Some(f), Some(o)) => {
+                f.thigh_seen < share
+                    && (f.shank_seen < share || (f.pose.knee - o.pose.knee).norm() < HIDDEN_KNEE_M)
+            }
+            _ => false,
+        };
         if legs_now.is_some() {
             for k in 0..2 {
-                if mostly_hidden(&fits[k]) && whole(&fits[1 - k]) {
+                if whole(&fits[1 - k]) && behind(&fits[k], &fits[1 - k]) {
                     fits[k] = None;
                 }
             }
