@@ -29,10 +29,10 @@ fn rms(v: &[f64]) -> f64 {
 /// fused plain and robust; the first second (the tracker still learning the lengths) is not
 /// scored.
 ///
-/// Measured: the tracker's own error by state, RMS tracked 6.0–6.6 cm (the
-/// noise model weighs inferred joints ×3); fused RMSE 0.062 m plain, 0.058 m robust (hips 4.1–4.7
-/// cm, knees 3.4–4.2 cm, ankles 7–10 cm, feet 5–8 cm) — against 0.02 m for the skeleton-level
-/// graph. The gap to the skeleton graph is the tracker's ankles and feet, not the host, and most
+/// Measured: the tracker's own error, RMS tracked 6.0–6.6 cm (the noise model weighs inferred
+/// joints ×3); fused RMSE 0.062 m plain, 0.058 m robust (hips 4.1–4.7 cm, knees 3.4–4.2 cm,
+/// ankles 7–10 cm, feet 5–8 cm) — against 0.02 m for the skeleton-level graph. The gap to the
+/// skeleton graph is the tracker's ankles and feet, not the host, and most
 /// of it is in the 0.35 s after each of the lap's instant turns: there 9 % of the joints, RMS
 /// 0.17–0.18 m; elsewhere 0.036 m plain, 0.032 m robust. Before cut-off lower legs were taken into
 /// the person's mask: 0.056 / 0.054 m in all, 0.14–0.15 m after the turns, 0.038 / 0.034 m
