@@ -15,19 +15,21 @@
 //!    hidden), each of which goes whole to one leg.
 //! 3. **Legs.** The model is two chains hip → knee → ankle of straight segments; each point
 //!    below the hip goes to the leg whose predicted axis is nearer, so the legs keep their
-//!    identities when they cross ([`legs`]). Hip height is a share of the measured stature;
-//!    the knee is the breakpoint of a two-line fit to the limb's axis; the ankle sits above the
-//!    sole of a foot standing on the floor (lowest band at the floor, the ankle still; for a
-//!    person standing still, kept down while the sole stays) and hangs at the shank length
-//!    otherwise. During the first frames the tracker measures the stature and the thigh and shank
-//!    lengths; then it holds them (too few measured: halves of the standing leg from the
-//!    stature) and places the knee and ankle at those distances along the fitted lines, an
-//!    ankle never below the floor. Where the lower legs pass each other they may land on the wrong chains; the
-//!    exchange that makes thigh and shank lines meet at the knees is tried below the predicted
-//!    knees and below the height where the predicted axes cross. A hip whose thigh is not seen
-//!    moves with the seen one. The `Foot` joint (second
-//!    metatarsal head) is an anthropometric distance ahead of the ankle along the walking
-//!    direction, pitched towards the leg's visible forefoot.
+//!    identities when they cross ([`legs`] fits one leg, [`chains`] both of a frame). Hip
+//!    height is a share of the measured stature; the knee is the breakpoint of a two-line fit
+//!    to the limb's axis; the ankle sits above the sole of a foot standing on the floor (lowest
+//!    band at the floor, the ankle still; for a person standing still, kept down while the sole
+//!    stays) and hangs at the shank length otherwise. During the first frames the tracker
+//!    measures the stature and the thigh and shank lengths; then it holds them (too few
+//!    measured: halves of the standing leg from the stature) and places the knee and ankle at
+//!    those distances along the fitted lines, an ankle never below the floor. Where the lower
+//!    legs pass each other they may land on the wrong chains; the exchange that makes thigh and
+//!    shank lines meet at the knees is tried below the predicted knees and below the height
+//!    where the predicted axes cross. A hip whose thigh is not seen moves with the seen one; a
+//!    leg mostly behind the other, or unseen, moves with the pelvis; a chain that stays
+//!    without a fit while two legs stand apart has the legs split afresh. The `Foot` joint
+//!    (second metatarsal head) is an anthropometric distance ahead of the ankle along the
+//!    walking direction, pitched towards the leg's visible forefoot.
 //! 4. **Sides.** Which chain is the left leg follows from the walking direction (the hips'
 //!    motion, or the feet, which point forward): left = up × forward. Decided once, then held.
 //!
@@ -38,6 +40,7 @@
 
 #![warn(missing_docs)]
 
+mod chains;
 mod legs;
 pub mod segment;
 
@@ -47,7 +50,8 @@ use trigait_depth::{DepthFrame, HEIGHT, PIXELS, WIDTH};
 use trigait_kinect::Intrinsics;
 use trigait_skeleton::{Joint, JointSample, TrackingState};
 
-use legs::{BAND_M, Band, FitInput, FloorFrame, LegFit, LegPose, fit_leg, place_foot};
+use chains::{Assign, ChainFits, ChainFitter, LegPoints, drop_legs_behind, nearer_mean, two_means};
+use legs::{FitInput, FloorFrame, LegFit, LegPose, place_foot};
 pub use segment::{Component, mask_iou};
 
 /// The depth camera as the tracker sees it.
@@ -351,50 +355,15 @@ pub enum Error {
     },
 }
 
-/// Which leg chain a point (horizontal position, height) belongs to, if any.
-type Assign = dyn Fn(&Vector2<f64>, f64) -> Option<usize>;
-
-/// Each chain's points by height band, and its points low enough to be its foot.
-type Split = ([Vec<Band>; 2], [Vec<(Vector2<f64>, f64)>; 2]);
-
-/// An ankle that moved less than this since the last frame stands (0.45 m/s at 30 Hz), metres.
-const STILL_ANKLE_M: f64 = 0.015;
-
 /// Hips and knees that all moved less than this since the last frame belong to a person
 /// standing still (0.3 m/s at 30 Hz; walking, the hips move about 4 cm a frame at 1.2 m/s and
 /// a swinging knee faster still), metres.
 const STILL_BODY_M: f64 = 0.01;
 
-/// A standing foot's sole (the centre of its lowest band seen) that moved less than this since
-/// the last frame has not moved: the band's points go to the nearer predicted leg axis, which
-/// shifts the centre by up to 2 cm on an unchanged image, metres.
-const STILL_SOLE_M: f64 = 0.03;
-
-/// How much better (summed gap between thigh and shank lines at the knees, metres) the
-/// exchanged lower legs must join up to be taken.
-const SWAP_MARGIN_M: f64 = 0.04;
-
-/// Points lower than this may be a foot (a swinging ankle stays below 0.3 m), metres.
-const FOOT_REGION_M: f64 = 0.35;
-
-/// Predicted leg axes nearer than this at some height below the knees cross there, metres.
-const CROSSING_M: f64 = 0.08;
-
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
 const MIN_WALK_M: f64 = 0.1;
-/// Lower legs whose point centres lie farther apart than this are two legs, metres (one leg's
-/// points split in two lie about a leg's width apart).
-const TWO_LEGS_M: f64 = 0.2;
-/// Frames a chain may go without a fit before the legs are split afresh (0.1 s at 30 Hz): a
-/// leg that passes behind the other for a frame or two coasts through rather than being split
-/// off the leg in front.
-const MISSED_BEFORE_SPLIT: usize = 3;
-/// A knee this near the other leg's, on a leg whose thigh is mostly unseen, was fitted to the
-/// other leg's points, metres (walking knees pass as close as 14 cm, so the thigh must be
-/// mostly unseen as well).
-const HIDDEN_KNEE_M: f64 = 0.15;
 
 #[derive(Debug, Clone)]
 struct LegTrack {
@@ -612,7 +581,8 @@ impl LegTracker {
         out
     }
 
-    #[allow(clippy::too_many_lines)]
+    /// Fits the two leg chains to the person's points below the hips and updates the tracks,
+    /// the sides and the frame's joints.
     fn fit_legs(
         &mut self,
         cloud: &segment::Cloud,
@@ -623,24 +593,8 @@ impl LegTracker {
     ) {
         let ff = FloorFrame::new(floor.up_in_kinect, floor.camera_height_m);
         let hip_h = self.config.hip_height_ratio * stature;
-        let n_bands = (hip_h / BAND_M).ceil() as usize + 1;
-        // Leg points: horizontal coordinates and heights.
-        let mut pts: Vec<(Vector2<f64>, f64)> = Vec::with_capacity(8000);
-        // The cut-off limb each point is on (0: the person's component).
-        let mut limb_of: Vec<u8> = Vec::with_capacity(8000);
-        for (i, &m) in piece.iter().enumerate() {
-            if m == 0 {
-                continue;
-            }
-            let h = f64::from(cloud.height[i]);
-            if h >= hip_h {
-                continue;
-            }
-            let p = cloud.points[i].coords.cast::<f64>();
-            pts.push((Vector2::new(ff.e1.dot(&p), ff.e2.dot(&p)), h));
-            limb_of.push(m - 1);
-        }
-        if pts.len() < 50 {
+        let points = LegPoints::gather(cloud, piece, &ff, hip_h);
+        if points.pts.len() < 50 {
             return self.coast(&ff, out);
         }
         let predicted: Option<[LegPose; 2]> = self.legs.as_ref().map(|l| {
@@ -658,57 +612,59 @@ impl LegTracker {
                 (d < 0.35).then_some(k)
             }),
             None => {
-                let Some((c0, c1)) = two_means(&pts, 0.1 * hip_h, 0.6 * hip_h) else {
+                let Some((c0, c1)) = two_means(&points.pts, 0.1 * hip_h, 0.6 * hip_h) else {
                     return self.coast(&ff, out);
                 };
                 Box::new(nearer_mean(c0, c1))
             }
         };
-        // Each chain's points by height band, and its points low enough to be its foot (for
-        // the `Foot` joint).
-        let split_by = |assign: &Assign| -> Split {
-            let mut bands = [
-                vec![Band::default(); n_bands],
-                vec![Band::default(); n_bands],
-            ];
-            let mut low: [Vec<(Vector2<f64>, f64)>; 2] = [Vec::new(), Vec::new()];
-            // A cut-off limb is one leg's: all of it goes to the chain most of its points go
-            // to (point by point, a limb passing the other leg's predicted axis would be cut
-            // in two).
-            let mut votes =
-                vec![[0_usize; 2]; usize::from(limb_of.iter().copied().max().unwrap_or(0)) + 1];
-            for ((p, h), &l) in pts.iter().zip(&limb_of) {
-                if l > 0
-                    && let Some(k) = assign(p, *h)
-                {
-                    votes[usize::from(l)][k] += 1;
-                }
-            }
-            for ((p, h), &l) in pts.iter().zip(&limb_of) {
-                let [a, b] = votes[usize::from(l)];
-                let chain = if l == 0 || a == b {
-                    assign(p, *h)
-                } else {
-                    Some(usize::from(b > a))
-                };
-                if let Some(k) = chain {
-                    let b = ((h / BAND_M).floor().max(0.0) as usize).min(n_bands - 1);
-                    bands[k][b].add(p, *h);
-                    if *h < FOOT_REGION_M {
-                        low[k].push((*p, *h));
-                    }
-                }
-            }
-            (bands, low)
+        let mut split = points.split(&*assign);
+        let last = self.legs.clone();
+        let fitter = ChainFitter {
+            ff: &ff,
+            input: self.fit_input(hip_h, stature),
+            last: last.as_ref(),
+            // Someone standing still: hips and knees of both legs still since the last frame.
+            body_still: last.as_ref().is_some_and(|l| {
+                l.iter().all(|t| {
+                    (t.pose.hip - t.previous.hip).norm() < STILL_BODY_M
+                        && (t.pose.knee - t.previous.knee).norm() < STILL_BODY_M
+                })
+            }),
+            floor_tolerance_m: self.config.segment.floor_tolerance_m,
         };
-        let (bands, mut low) = split_by(&*assign);
-        let min_pts = self.config.min_band_points as f64;
-        let params_floor_tol = self.config.segment.floor_tolerance_m;
-        let ankle_above = self.config.ankle_height_ratio * stature;
-        let input = FitInput {
+        let mut fits = fitter.fit(&split.0);
+        if let Some(pred) = &predicted {
+            fitter.exchange_lower_legs(pred, &mut split, &mut fits);
+        }
+        let share = self.config.tracked_share;
+        if last.is_some() {
+            drop_legs_behind(&mut fits.fit, share);
+        }
+        fitter.resplit_lost_chain(&points, share, &mut split, &mut fits);
+        self.learn_lengths(&fits);
+        self.carry_unseen_hips(&mut fits.fit);
+        let Some(tracks) = self.update_tracks(&fits) else {
+            self.legs = None;
+            return;
+        };
+        let seen = |k: usize| fits.fit[k].is_some_and(|f| f.thigh_seen >= share);
+        self.pelvis_history
+            .push([(tracks[0].pose.hip, seen(0)), (tracks[1].pose.hip, seen(1))]);
+        if self.pelvis_history.len() > PELVIS_HISTORY {
+            self.pelvis_history.remove(0);
+        }
+        self.decide_sides(&ff, &tracks, &fits.fit);
+        self.emit(&ff, &tracks, &fits.fit, &split.1, stature, out);
+        self.legs = Some(tracks);
+    }
+
+    /// What fitting a leg needs of the tracker: the hip height, the ankle over the sole, and
+    /// the segment lengths, held or, while learning, as measured so far once there are a few.
+    fn fit_input(&self, hip_h: f64, stature: f64) -> FitInput {
+        FitInput {
             hip_h,
-            ankle_above_sole_m: ankle_above,
-            // Held, or while learning the lengths so far once there are a few.
+            ankle_above_sole_m: self.config.ankle_height_ratio * stature,
             lengths: self.held.map(|h| h.1).or_else(|| {
                 if self.thighs.len() < 5 || self.shanks.len() < 5 {
                     return None;
@@ -722,220 +678,70 @@ impl LegTracker {
             } else {
                 None
             },
-            min_band_points: min_pts,
-        };
-        let legs_now = self.legs.clone();
-        // Someone standing still: hips and knees of both legs still since the last frame.
-        let body_still = legs_now.as_ref().is_some_and(|l| {
-            l.iter().all(|t| {
-                (t.pose.hip - t.previous.hip).norm() < STILL_BODY_M
-                    && (t.pose.knee - t.previous.knee).norm() < STILL_BODY_M
-            })
-        });
-        let fit_both = |bands: &[Vec<Band>; 2]| {
-            let mut fits: [Option<LegFit>; 2] = [None, None];
-            let mut on_floor_legs = [false; 2];
-            let mut soles: [Option<Vector2<f64>>; 2] = [None, None];
-            for k in 0..2 {
-                let Some(sole_band) = bands[k].iter().position(|b| b.n >= min_pts) else {
-                    continue;
-                };
-                // The floor cut hides the lowest centimetres: a foot whose lowest band sits
-                // just above the cut stands on the floor ...
-                let sole = bands[k][sole_band].centre(min_pts);
-                let lowest = sole.map_or(0.0, |c| c.1);
-                soles[k] = sole.map(|c| c.0);
-                // ... and a foot in stance is still (a swing foot skims the floor toes first):
-                // its reported ankle stood still, or, for a person standing still (hips and
-                // knees still), it stood on the floor and its sole has not moved since. The
-                // second keeps a foot down whose ankle the decision itself moved (from hung
-                // at the shank length to over the floor), which would otherwise flip it back
-                // up the next frame, and on, every few frames.
-                let still = legs_now.as_ref().is_none_or(|l| {
-                    (l[k].pose.ankle - l[k].previous.ankle).norm() < STILL_ANKLE_M
-                        || body_still
-                            && l[k].sole.zip(soles[k]).is_some_and(|((was, down), now)| {
-                                down && (now - was).norm() < STILL_SOLE_M
-                            })
-                });
-                let on_floor = lowest < params_floor_tol + BAND_M && still;
-                let sole_h = if on_floor { 0.0 } else { lowest - 0.5 * BAND_M };
-                // Foot: the points below the ankle.
-                let (mut sum, mut n) = (Vector3::zeros(), 0.0);
-                for b in bands[k]
-                    .iter()
-                    .take(((sole_h + ankle_above) / BAND_M).ceil() as usize)
-                {
-                    if let Some((c, h, _)) = b.centre(1.0) {
-                        sum += ff.join(&c, h).coords * b.n;
-                        n += b.n;
-                    }
-                }
-                on_floor_legs[k] = on_floor;
-                fits[k] = fit_leg(&ff, &bands[k], sole_h, on_floor, (sum, n), &input);
+            min_band_points: self.config.min_band_points as f64,
+        }
+    }
+
+    /// While the lengths are not yet held: the thighs measured this frame, and the shanks over
+    /// a foot on the floor (a hung ankle says nothing of the shank's length).
+    fn learn_lengths(&mut self, fits: &ChainFits) {
+        if self.held.is_some() {
+            return;
+        }
+        for (f, on_floor) in fits.fit.iter().zip(fits.on_floor) {
+            let Some(f) = f else { continue };
+            if let Some(lt) = f.thigh_measured.filter(|l| (0.2..0.7).contains(l)) {
+                self.thighs.push(lt);
             }
-            (fits, on_floor_legs, soles)
-        };
-        let (mut fits, mut on_floor_legs, mut soles) = fit_both(&bands);
-        // Where the legs pass each other the lower legs may have gone to the wrong chains: a
-        // leg's thigh and shank lines meet at its knee, a thigh and the other leg's shank do
-        // not. Try the lower legs exchanged below the predicted knees and keep what joins up.
-        // The assignment to the nearer predicted axis flips where the two predicted axes
-        // cross, so a wrong prediction (lower legs crossed) mixes the lower legs below that
-        // height: try the exchange below the crossing too.
-        if let (Some(pred), [Some(a), Some(b)]) = (predicted, &fits) {
-            let knee_h =
-                0.5 * (ff.split(&pred[0].knee.coords).1 + ff.split(&pred[1].knee.coords).1);
-            let knee_split = ((knee_h / BAND_M).floor().max(0.0) as usize).min(n_bands);
-            let mut splits = vec![knee_split];
-            if let Some(cross) = (1..knee_split)
-                .map(|k| {
-                    let h = (k as f64 + 0.5) * BAND_M;
-                    (
-                        k,
-                        (pred[0].axis_at(&ff, h) - pred[1].axis_at(&ff, h)).norm(),
-                    )
-                })
-                .min_by(|x, y| x.1.total_cmp(&y.1))
-                .filter(|(k, d)| *d < CROSSING_M && k + 2 <= knee_split)
+            if let Some(ls) = f
+                .shank_measured
+                .filter(|l| on_floor && (0.2..0.7).contains(l))
             {
-                splits.push(cross.0);
-            }
-            let mut best_gap = a.knee_gap_m + b.knee_gap_m - SWAP_MARGIN_M;
-            let mut taken = None;
-            for split in splits {
-                let mut swapped = bands.clone();
-                let (lo0, lo1) = swapped.split_at_mut(1);
-                lo0[0][..split].swap_with_slice(&mut lo1[0][..split]);
-                let (alt, alt_floor, alt_soles) = fit_both(&swapped);
-                if let [Some(c), Some(d)] = &alt
-                    && c.knee_gap_m + d.knee_gap_m < best_gap
-                {
-                    best_gap = c.knee_gap_m + d.knee_gap_m;
-                    taken = Some((split, alt, alt_floor, alt_soles));
-                }
-            }
-            if let Some((split, alt, alt_floor, alt_soles)) = taken {
-                fits = alt;
-                on_floor_legs = alt_floor;
-                soles = alt_soles;
-                let below = split as f64 * BAND_M;
-                let [l0, l1] = &mut low;
-                let (keep0, move0): (Vec<_>, Vec<_>) = l0.iter().partition(|p| p.1 >= below);
-                let (keep1, move1): (Vec<_>, Vec<_>) = l1.iter().partition(|p| p.1 >= below);
-                *l0 = keep0.into_iter().chain(move1).collect();
-                *l1 = keep1.into_iter().chain(move0).collect();
+                self.shanks.push(ls);
             }
         }
-        // A leg whose thigh shows less than the tracked share while the other leg is seen
-        // whole is mostly behind that other leg when its shank shows little too, or when its
-        // knee came out beside the other's: the few points the nearest predicted axis gives it
-        // fit a leg that drifts onto the one in front, and the chains then exchange lower legs.
-        // It coasts with the pelvis instead, as an unseen leg does.
+    }
+
+    /// A hip is placed on its thigh's line: with the thigh unseen, that line is the shank's or
+    /// another leg's, and the hip may land anywhere (a hand's breadth across, enough to put the
+    /// sides the wrong way round). It moves with the pelvis instead, by the seen hip's step, as
+    /// an unseen leg does in [`Self::update_tracks`]. The knee and ankle stay where the seen
+    /// shank put them (the hip-knee distance is then not the held thigh length; both joints
+    /// are reported inferred).
+    fn carry_unseen_hips(&self, fits: &mut [Option<LegFit>; 2]) {
+        let Some(old) = &self.legs else {
+            return;
+        };
         let share = self.config.tracked_share;
-        let whole =
-            |f: &Option<LegFit>| f.is_some_and(|f| f.thigh_seen >= share && f.shank_seen >= share);
-        let behind = |f: &Option<LegFit>, other: &Option<LegFit>| match (f, other) {
-            (Some(f), Some(o)) => {
-                f.thigh_seen < share
-                    && (f.shank_seen < share || (f.pose.knee - o.pose.knee).norm() < HIDDEN_KNEE_M)
-            }
-            _ => false,
-        };
-        if legs_now.is_some() {
-            for k in 0..2 {
-                if whole(&fits[1 - k]) && behind(&fits[k], &fits[1 - k]) {
-                    fits[k] = None;
-                }
-            }
-        }
-        // A chain that has had no fit for a few frames while two legs stand apart has lost
-        // its leg: its prediction went off the body (after a sharp turn, both legs fell to the
-        // other chain) and it would coast, wrong, until it is dropped. Split the legs afresh,
-        // as at the start, and keep the split when it shows two thighs: the fitted chain
-        // takes the leg nearer its fit, the lost chain the other. A leg hidden behind the
-        // other shows no second thigh, so it keeps coasting with the pelvis.
-        let lost = match &fits {
-            [Some(_), None] => Some(1),
-            [None, Some(_)] => Some(0),
-            _ => None,
-        };
-        if let Some(lost) = lost
-            && legs_now
-                .as_ref()
-                .is_some_and(|l| l[lost].missed >= MISSED_BEFORE_SPLIT)
-            && let Some((c0, c1)) = two_means(&pts, 0.1 * hip_h, 0.6 * hip_h)
-            && (c0 - c1).norm() > TWO_LEGS_M
-        {
-            let (resplit, mut resplit_low) = split_by(&nearer_mean(c0, c1));
-            let (mut alt, mut alt_floor, mut alt_soles) = fit_both(&resplit);
-            if let ([Some(a), Some(b)], Some(kept)) = (&alt, fits[1 - lost])
-                && a.thigh_seen >= share
-                && b.thigh_seen >= share
+        let thigh_seen = |f: &Option<LegFit>| f.is_some_and(|f| f.thigh_seen >= share);
+        for k in 0..2 {
+            if !thigh_seen(&fits[k])
+                && thigh_seen(&fits[1 - k])
+                && let Some(step) = pelvis_step(old, fits, k)
+                && let Some(f) = fits[k].as_mut()
             {
-                // The new fits come as (a, b); `a` goes to the kept chain if its hip is the
-                // nearer one, else to the lost chain.
-                let a_nearer =
-                    (a.pose.hip - kept.pose.hip).norm() <= (b.pose.hip - kept.pose.hip).norm();
-                let a_chain = if a_nearer { 1 - lost } else { lost };
-                if a_chain == 1 {
-                    alt.swap(0, 1);
-                    alt_floor.swap(0, 1);
-                    alt_soles.swap(0, 1);
-                    resplit_low.swap(0, 1);
-                }
-                fits = alt;
-                on_floor_legs = alt_floor;
-                soles = alt_soles;
-                low = resplit_low;
+                f.pose.hip = old[k].pose.hip + step;
             }
         }
-        if self.held.is_none() {
-            for (f, on_floor) in fits.iter().zip(on_floor_legs) {
-                let Some(f) = f else { continue };
-                if let Some(lt) = f.thigh_measured.filter(|l| (0.2..0.7).contains(l)) {
-                    self.thighs.push(lt);
-                }
-                if let Some(ls) = f
-                    .shank_measured
-                    .filter(|l| on_floor && (0.2..0.7).contains(l))
-                {
-                    self.shanks.push(ls);
-                }
-            }
-        }
-        // A hip is placed on its thigh's line: with the thigh unseen, that line is the shank's
-        // or another leg's, and the hip may land anywhere (a hand's breadth across, enough to
-        // put the sides the wrong way round). It moves with the pelvis instead, by the seen
-        // hip's step, as an unseen leg does below. The knee and ankle stay where the seen
-        // shank put them (the hip-knee distance is then not the held thigh length; both
-        // joints are reported inferred).
-        if let Some(old) = &self.legs {
-            let thigh_seen = |f: &Option<LegFit>| f.is_some_and(|f| f.thigh_seen >= share);
-            for k in 0..2 {
-                if !thigh_seen(&fits[k])
-                    && thigh_seen(&fits[1 - k])
-                    && let Some(step) = pelvis_step(old, &fits, k)
-                    && let Some(f) = fits[k].as_mut()
-                {
-                    f.pose.hip = old[k].pose.hip + step;
-                }
-            }
-        }
-        // Update the tracks. An unseen leg moves with the pelvis (the seen hip's step): the
-        // pelvis is rigid, and a leg hidden behind the other is carried along by the body.
+    }
+
+    /// The tracks after this frame's fits, taking the old ones: a fitted leg takes its fit; an
+    /// unseen leg moves with the pelvis (the seen hip's step), as the pelvis is rigid and a leg
+    /// hidden behind the other is carried along by the body, until it has missed too many
+    /// frames. `None` when a leg is lost, or at start-up without both legs.
+    fn update_tracks(&mut self, fits: &ChainFits) -> Option<[LegTrack; 2]> {
         let fitted = |k: usize, f: &LegFit, previous: LegPose| LegTrack {
             pose: f.pose,
             previous,
             missed: 0,
-            sole: soles[k].map(|s| (s, on_floor_legs[k])),
+            sole: fits.sole[k].map(|s| (s, fits.on_floor[k])),
         };
-        let tracks = match (self.legs.take(), &fits) {
+        match (self.legs.take(), &fits.fit) {
             (Some(old), _) => {
-                let upd = |k: usize, t: &LegTrack| match &fits[k] {
+                let upd = |k: usize, t: &LegTrack| match &fits.fit[k] {
                     Some(f) => Some(fitted(k, f, t.pose)),
                     None if t.missed < self.config.max_inferred_frames => {
-                        let step = pelvis_step(&old, &fits, k).unwrap_or_else(Vector3::zeros);
+                        let step = pelvis_step(&old, &fits.fit, k).unwrap_or_else(Vector3::zeros);
                         Some(LegTrack {
                             previous: t.pose,
                             pose: LegPose {
@@ -949,30 +755,30 @@ impl LegTracker {
                     }
                     None => None,
                 };
-                match (upd(0, &old[0]), upd(1, &old[1])) {
-                    (Some(a), Some(b)) => Some([a, b]),
-                    _ => None,
-                }
+                Some([upd(0, &old[0])?, upd(1, &old[1])?])
             }
             (None, [Some(a), Some(b)]) => Some([fitted(0, a, a.pose), fitted(1, b, b.pose)]),
             (None, _) => None,
-        };
-        let Some(tracks) = tracks else {
-            self.legs = None;
-            return;
-        };
-        let seen = |k: usize| fits[k].is_some_and(|f| f.thigh_seen >= self.config.tracked_share);
-        self.pelvis_history
-            .push([(tracks[0].pose.hip, seen(0)), (tracks[1].pose.hip, seen(1))]);
-        if self.pelvis_history.len() > PELVIS_HISTORY {
-            self.pelvis_history.remove(0);
         }
-        self.decide_sides(&ff, &tracks, &fits);
-        // Emit.
+    }
+
+    /// The frame's joints from the tracks, once the sides are decided: each with its
+    /// confidence (the share of its segments' bands seen) and state, and the `Foot` joint
+    /// where the fitted leg's foot points (`low`: each chain's points low enough to be its
+    /// foot).
+    fn emit(
+        &self,
+        ff: &FloorFrame,
+        tracks: &[LegTrack; 2],
+        fits: &[Option<LegFit>; 2],
+        low: &[Vec<(Vector2<f64>, f64)>; 2],
+        stature: f64,
+        out: &mut TrackedFrame,
+    ) {
         let Some(left) = self.left else {
-            self.legs = Some(tracks);
             return;
         };
+        let share = self.config.tracked_share;
         for (k, (hip_j, knee_j, ankle_j, foot_j)) in [
             (
                 Joint::HipLeft,
@@ -1020,7 +826,7 @@ impl LegTracker {
             if fits[chain].is_some()
                 && let Some(forward) = forward
                 && let Some(foot) = place_foot(
-                    &ff,
+                    ff,
                     &t.pose.ankle,
                     &low[chain],
                     &forward,
@@ -1030,7 +836,6 @@ impl LegTracker {
                 emit(foot_j, foot, shank);
             }
         }
-        self.legs = Some(tracks);
     }
 
     /// No fit this frame: the model coasts (inferred) until it has missed too many frames.
@@ -1147,59 +952,6 @@ impl LegTracker {
 /// hip step from its track to its fit, if it was fitted (the pelvis is rigid).
 fn pelvis_step(old: &[LegTrack; 2], fits: &[Option<LegFit>; 2], k: usize) -> Option<Vector3<f64>> {
     fits[1 - k].map(|f| f.pose.hip - old[1 - k].pose.hip)
-}
-
-/// The assignment of a point to the nearer of two means (0 or 1), whatever its height.
-fn nearer_mean(c0: Vector2<f64>, c1: Vector2<f64>) -> impl Fn(&Vector2<f64>, f64) -> Option<usize> {
-    move |p: &Vector2<f64>, _h: f64| Some(usize::from((p - c1).norm() < (p - c0).norm()))
-}
-
-/// Two-means of the horizontal positions of the points between heights `lo` and `hi`, started
-/// from the extremes along the main axis.
-fn two_means(
-    pts: &[(Vector2<f64>, f64)],
-    lo: f64,
-    hi: f64,
-) -> Option<(Vector2<f64>, Vector2<f64>)> {
-    let sel: Vec<Vector2<f64>> = pts
-        .iter()
-        .filter(|p| p.1 >= lo && p.1 < hi)
-        .map(|p| p.0)
-        .collect();
-    if sel.len() < 20 {
-        return None;
-    }
-    let mean = sel.iter().sum::<Vector2<f64>>() / sel.len() as f64;
-    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-    for p in &sel {
-        let d = p - mean;
-        sxx += d.x * d.x;
-        sxy += d.x * d.y;
-        syy += d.y * d.y;
-    }
-    let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-    let axis = Vector2::new(angle.cos(), angle.sin());
-    let proj = |p: &Vector2<f64>| axis.dot(&(p - mean));
-    let mut c0 = *sel.iter().min_by(|a, b| proj(a).total_cmp(&proj(b)))?;
-    let mut c1 = *sel.iter().max_by(|a, b| proj(a).total_cmp(&proj(b)))?;
-    for _ in 0..10 {
-        let (mut s0, mut n0, mut s1, mut n1) = (Vector2::zeros(), 0.0, Vector2::zeros(), 0.0);
-        for p in &sel {
-            if (p - c0).norm() <= (p - c1).norm() {
-                s0 += p;
-                n0 += 1.0;
-            } else {
-                s1 += p;
-                n1 += 1.0;
-            }
-        }
-        if n0 == 0.0 || n1 == 0.0 {
-            return None;
-        }
-        c0 = s0 / n0;
-        c1 = s1 / n1;
-    }
-    Some((c0, c1))
 }
 
 #[cfg(test)]
