@@ -90,6 +90,7 @@ pub fn status_name(status: Status) -> &'static str {
         Status::NoFloor => "no_floor",
         Status::Nobody => "nobody",
         Status::Tracking => "tracking",
+        Status::NoStature => "no_stature",
     }
 }
 

@@ -258,6 +258,9 @@ pub enum Status {
     Nobody,
     /// A person was segmented; see the joints for what was found.
     Tracking,
+    /// A person was segmented, but their stature is not known: the head has not been seen in
+    /// view yet (someone close to the sensor), and the legs are sized from it.
+    NoStature,
 }
 
 /// One joint of the output.
@@ -543,8 +546,9 @@ impl LegTracker {
             Some((s, _)) => Some(s),
             None => median(&mut self.statures.clone()),
         };
-        if let Some(stature) = stature {
-            self.fit_legs(&cloud, &piece, &floor, stature, &mut out);
+        match stature {
+            Some(stature) => self.fit_legs(&cloud, &piece, &floor, stature, &mut out),
+            None => out.status = Status::NoStature,
         }
         out.stature_m = stature;
         out.segment_lengths_m = self.held.map(|h| h.1).or_else(|| {
@@ -892,6 +896,7 @@ impl LegTracker {
     ) {
         // The pelvis's travel over the window, from the hips seen at both of its ends (the
         // pelvis is rigid, so either hip's travel is the walk's).
+        let horizontal = |v: &Vector3<f64>| v - ff.up * ff.up.dot(v);
         let travel = match (self.pelvis_history.first(), self.pelvis_history.last()) {
             (Some(a), Some(b)) if self.pelvis_history.len() >= PELVIS_HISTORY => {
                 let steps: Vec<Vector3<f64>> = a
@@ -905,7 +910,7 @@ impl LegTracker {
             _ => None,
         };
         // The travel when it is a walk rather than sway.
-        let walk = travel.filter(|v| (v - ff.up * ff.up.dot(v)).norm() > MIN_WALK_M);
+        let walk = travel.filter(|v| horizontal(v).norm() > MIN_WALK_M);
         let by_motion = walk.is_some();
         // The feet decide only for someone standing (seen still over the whole window) or on
         // the very first frame (a single recorded image); a person found again waits for the
@@ -928,7 +933,7 @@ impl LegTracker {
             }
             f
         };
-        let forward = forward - ff.up * ff.up.dot(&forward);
+        let forward = horizontal(&forward);
         if forward.norm() < 0.03 {
             return;
         }
@@ -940,8 +945,17 @@ impl LegTracker {
         if !self.pelvis_history.last().is_some_and(|[a, b]| a.1 && b.1) {
             return;
         }
+        // Walking, the hips say it (the pelvis is rigid; knees and ankles swing past each
+        // other). Standing, the hips, knees and ankles together: a half-seen hip may sit
+        // anywhere (22 cm off in one rendered pose, on the wrong side), while a standing
+        // person's knees and ankles lie apart as the hips do.
         let lateral = ff.up.cross(&forward.normalize());
-        let d = lateral.dot(&(tracks[0].pose.hip - tracks[1].pose.hip));
+        let (a, b) = (&tracks[0].pose, &tracks[1].pose);
+        let d = if by_motion {
+            lateral.dot(&(a.hip - b.hip))
+        } else {
+            lateral.dot(&((a.hip - b.hip) + (a.knee - b.knee) + (a.ankle - b.ankle))) / 3.0
+        };
         if d.abs() > 0.03 {
             self.left = Some(if d > 0.0 { 0 } else { 1 });
         }

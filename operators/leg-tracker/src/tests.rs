@@ -601,7 +601,8 @@ fn thesis_k1() -> Isometry3<f64> {
 }
 
 /// Frames without a person give clear states and counts and never panic: all zeros, the empty
-/// room (with the floor given and fitted), two people, a person walking out of the view.
+/// room (with the floor given and fitted), two people, a person walking out of the view, a
+/// person standing too close for the head to be seen.
 #[test]
 fn robustness() {
     let pose = thesis_k1();
@@ -673,6 +674,20 @@ fn robustness() {
         "{states:?}"
     );
 
+    // Standing close to k3 from the start, the head out of view: no stature to size the legs
+    // from, said as such, and no joints guessed.
+    let near = lap();
+    let mut renderer = seeded_renderer(&k3, 3);
+    let mut t4 = LegTracker::new(config_for(&k3)).unwrap();
+    for _ in 0..10 {
+        let r = renderer
+            .render_pose(&shape, |j| near.position_at(j, 3.9))
+            .unwrap();
+        let out = t4.track(&r.depth);
+        assert_eq!((out.status, out.people), (Status::NoStature, 1), "{out:?}");
+        assert!(out.joints.is_empty() && out.stature_m.is_none());
+    }
+
     // Garbage: a random-looking frame.
     let mut junk = DepthFrame::zeros();
     for (i, v) in junk.as_mm_mut().iter_mut().enumerate() {
@@ -681,7 +696,7 @@ fn robustness() {
     let out = tracker.track(&junk);
     assert!(matches!(
         out.status,
-        Status::Nobody | Status::Tracking | Status::NoFloor
+        Status::Nobody | Status::Tracking | Status::NoFloor | Status::NoStature
     ));
 }
 
@@ -922,5 +937,99 @@ fn over_ten_noise_seeds() {
         runs.iter()
             .filter(|r| r.2.medians.iter().any(|m| *m > 0.04))
             .count()
+    );
+}
+
+/// People standing still in the walker's poses: 16 instants over the lap (the 0.35 s after each
+/// turn left out) on each sensor of the thesis rig, each rendered 30 times afresh (new sensor
+/// noise), counting the frames whose sides came out swapped and the poses with any. A frozen
+/// walking pose is harder than standing: one foot is off the floor and a leg often half hidden.
+/// What goes wrong: a half-seen hip jumps and makes a still person "walk", the wrong way round
+/// as often as not, or the feet, one off the floor, point backwards.
+/// Run by hand: `cargo test --release -p trigait-leg-tracker -- --ignored still_poses --nocapture`.
+#[test]
+#[ignore = "a measurement run by hand, about 10 seconds"]
+fn still_poses_over_the_lap() {
+    let clip = lap();
+    let rig = Rig::builtin("thesis").unwrap();
+    let (mut swapped, mut complete, mut poses, mut poses_swapped) = (0, 0, 0, 0);
+    for sensor in &rig.sensors {
+        let pose = sensor.world_from_kinect;
+        for i in 0..16_u32 {
+            let t = clip.duration_secs() * (f64::from(i) + 0.5) / 16.0;
+            if near_turn(t, clip.duration_secs()) {
+                continue;
+            }
+            poses += 1;
+            let mut renderer = seeded_renderer(&pose, 11 + u64::from(i));
+            let mut tracker = LegTracker::new(config_for(&pose)).unwrap();
+            let mut swaps = 0;
+            for _ in 0..30 {
+                let r = renderer
+                    .render_pose(&BodyShape::default(), |j| clip.position_at(j, t))
+                    .unwrap();
+                let out = tracker.track(&r.depth);
+                if let Some(swapped) = sides_swapped(&out, &r) {
+                    complete += 1;
+                    swaps += usize::from(swapped);
+                }
+            }
+            if swaps > 0 {
+                eprintln!("{} at {t:.2} s: {swaps} of 30 frames swapped", sensor.id);
+                poses_swapped += 1;
+            }
+            swapped += swaps;
+        }
+    }
+    eprintln!(
+        "{poses} still poses: {poses_swapped} with swapped sides, {swapped} swapped frames of {complete} with all six joints"
+    );
+    assert!(complete > 0);
+}
+
+/// Whether the frame's sides came out swapped against the rendered truth (at least two of the
+/// hip, knee and ankle pairs nearer the other side's truth), if all six joints were reported.
+fn sides_swapped(out: &TrackedFrame, truth: &trigait_body_render::Rendered) -> Option<bool> {
+    let mut crossed = 0;
+    for (left, right) in [
+        (Joint::HipLeft, Joint::HipRight),
+        (Joint::KneeLeft, Joint::KneeRight),
+        (Joint::AnkleLeft, Joint::AnkleRight),
+    ] {
+        let (a, b) = (out.joint(left)?, out.joint(right)?);
+        let (gl, gr) = (truth.joint(left)?, truth.joint(right)?);
+        let (a, b) = (a.position_in_kinect, b.position_in_kinect);
+        let direct = (a - gl).norm() + (b - gr).norm();
+        let across = (a - gr).norm() + (b - gl).norm();
+        crossed += usize::from(across + 0.03 < direct);
+    }
+    Some(crossed >= 2)
+}
+
+/// A person standing still side-on to k2, feet together (the walker's pose 5.6 s into the lap,
+/// ankles 11 cm apart), gets the sides right from the first frame. The far hip is half seen and
+/// was fitted 22 cm off, on the wrong side: read off the hips alone, the sides came out swapped
+/// on every frame; the knees and ankles, which a standing person holds apart as the hips, put
+/// them right.
+#[test]
+fn a_still_person_with_a_half_seen_hip_gets_the_sides_right() {
+    let clip = lap();
+    let pose = Rig::builtin("thesis").unwrap().sensors[1].world_from_kinect;
+    let mut renderer = seeded_renderer(&pose, 11);
+    let mut tracker = LegTracker::new(config_for(&pose)).unwrap();
+    let mut complete = 0;
+    for f in 0..40 {
+        let r = renderer
+            .render_pose(&BodyShape::default(), |j| clip.position_at(j, 5.6))
+            .unwrap();
+        let out = tracker.track(&r.depth);
+        if let Some(swapped) = sides_swapped(&out, &r) {
+            assert!(!swapped, "frame {f}: sides swapped");
+            complete += 1;
+        }
+    }
+    assert!(
+        complete >= 35,
+        "{complete} frames of 40 with all six joints"
     );
 }
