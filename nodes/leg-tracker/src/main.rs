@@ -50,7 +50,8 @@ pub struct Counters {
     pub wrong_sensor: u64,
     /// Frames that are not 512×424 (skipped).
     pub wrong_size: u64,
-    /// Frames sent, by the tracker's outcome (`no_data`, `no_floor`, `nobody`, `tracking`).
+    /// Frames sent, by the tracker's outcome (`no_data`, `no_floor`, `nobody`, `tracking`,
+    /// `no_stature`).
     pub by_status: BTreeMap<&'static str, u64>,
     /// Joints sent tracked.
     pub joints_tracked: u64,

@@ -143,7 +143,8 @@ pub(crate) struct ChainFitter<'a> {
     pub last: Option<&'a [LegTrack; 2]>,
     /// Hips and knees of both legs still since the last frame: someone standing still.
     pub body_still: bool,
-    /// A foot whose lowest band is within this of the floor cut may stand on the floor, metres.
+    /// The floor cut (points lower than this are floor): a foot whose lowest band lies within
+    /// a band above it may stand on the floor, metres.
     pub floor_tolerance_m: f64,
 }
 

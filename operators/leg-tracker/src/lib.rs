@@ -885,9 +885,11 @@ impl LegTracker {
 
     /// Which chain is the left leg: left = up × forward, forward from the hips' motion over
     /// the last frames or, standing still, from the feet (they point forward). Re-decided
-    /// whenever the person clearly walks, so a turn on the spot does not swap the sides. Both
-    /// the motion and the sides are read off hips whose thighs were seen: at start-up with one
-    /// leg hidden, its guessed hip lay 0.35 m off and flipped the sides for 10 frames.
+    /// whenever the person clearly walks, so a turn on the spot does not swap the sides. The
+    /// motion is read off hips whose thighs were seen, and the sides only when both thighs are
+    /// seen: at start-up with one leg hidden, its guessed hip lay 0.35 m off and flipped the
+    /// sides for 10 frames. Walking, the sides are the hips'; from the feet, the hips', knees'
+    /// and ankles' together.
     fn decide_sides(
         &mut self,
         ff: &FloorFrame,
@@ -946,9 +948,9 @@ impl LegTracker {
             return;
         }
         // Walking, the hips say it (the pelvis is rigid; knees and ankles swing past each
-        // other). Standing, the hips, knees and ankles together: a half-seen hip may sit
-        // anywhere (22 cm off in one rendered pose, on the wrong side), while a standing
-        // person's knees and ankles lie apart as the hips do.
+        // other). From the feet (standing, or a first frame), the hips, knees and ankles
+        // together: a half-seen hip may sit anywhere (22 cm off in one rendered still pose, on
+        // the wrong side), while a standing person's knees and ankles lie apart as the hips do.
         let lateral = ff.up.cross(&forward.normalize());
         let (a, b) = (&tracks[0].pose, &tracks[1].pose);
         let d = if by_motion {
