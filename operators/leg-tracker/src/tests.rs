@@ -116,13 +116,8 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score>
                 (Joint::KneeLeft, Joint::KneeRight, 1),
                 (Joint::AnkleLeft, Joint::AnkleRight, 2),
             ];
-            // A swap exchanges the legs' identities: at least two of the three joint pairs are
-            // nearer the other side's truth (one misplaced joint is a fit error, not a swap).
-            let mut crossed_pairs = 0;
-            let mut both = true;
             for (l, r, class) in pairs {
                 let (Some(tl_), Some(tr)) = (out.joint(l), out.joint(r)) else {
-                    both = false;
                     continue;
                 };
                 let (gl, gr) = (rendered.joint(l).unwrap(), rendered.joint(r).unwrap());
@@ -138,11 +133,6 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score>
                         }
                     }
                 }
-                let direct =
-                    (tl_.position_in_kinect - gl).norm() + (tr.position_in_kinect - gr).norm();
-                let crossed =
-                    (tl_.position_in_kinect - gr).norm() + (tr.position_in_kinect - gl).norm();
-                crossed_pairs += usize::from(crossed + 0.03 < direct);
             }
             for j in [Joint::FootLeft, Joint::FootRight] {
                 if let (Some(tj), Some(g)) = (out.joint(j), rendered.joint(j))
@@ -152,7 +142,7 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score>
                     foot_height.push(up.dot(&(tj.position_in_kinect - g)));
                 }
             }
-            if both && crossed_pairs >= 2 && !near_turn(t, lap.duration_secs()) {
+            if sides_swapped(&out, &rendered) == Some(true) && !near_turn(t, lap.duration_secs()) {
                 eprintln!("{}: legs swapped at {t:.2} s", sensor.id);
                 swaps += 1;
             }
@@ -987,8 +977,10 @@ fn still_poses_over_the_lap() {
     assert!(complete > 0);
 }
 
-/// Whether the frame's sides came out swapped against the rendered truth (at least two of the
-/// hip, knee and ankle pairs nearer the other side's truth), if all six joints were reported.
+/// Whether the frame's sides came out swapped against the rendered truth, if all six joints
+/// were reported. A swap exchanges the legs' identities: at least two of the hip, knee and
+/// ankle pairs lie nearer the other side's truth (one misplaced joint is a fit error, not a
+/// swap).
 fn sides_swapped(out: &TrackedFrame, truth: &trigait_body_render::Rendered) -> Option<bool> {
     let mut crossed = 0;
     for (left, right) in [
