@@ -199,6 +199,33 @@ impl Source {
         }
     }
 
+    /// Starts the stream at host time `now`: the first frame is due then (on the sensor's
+    /// frame grid), not when the source was built. Building it may take a while (a motion or
+    /// recording to load, a renderer to set up), and the node connects to the daemon after
+    /// it; a body-depth source would otherwise skip the instants missed meanwhile, and the
+    /// others send them in a burst. Call once, just before the event loop.
+    pub fn begin_at(&mut self, now: i64) {
+        match self {
+            Source::Sim(s) => s.begin_at(now),
+            Source::BodyDepth(s) => s.begin_at(now),
+            Source::Replay(r) => r.begin_at(now),
+            Source::Recording(r) => r.begin_at(now),
+        }
+    }
+
+    /// What the backend lost or could not render, for the node's closing report; `None` when
+    /// it has nothing to say.
+    #[must_use]
+    pub fn losses(&self) -> Option<String> {
+        match self {
+            Source::BodyDepth(s) => Some(format!(
+                "{} instants skipped because the host was behind ({} before the first frame), {} rendered as the empty room (no body pose at that instant)",
+                s.skipped, s.skipped_at_start, s.render_failures
+            )),
+            _ => None,
+        }
+    }
+
     /// Captures the frame due now; `clock` stamps it.
     pub fn capture(&mut self, now: i64, clock: &mut SensorClock) -> Option<Captured> {
         match self {

@@ -73,6 +73,8 @@ pub struct BodyDepthSensor {
     pending: Option<DepthFrameMessage>,
     /// Instants skipped because the host was behind.
     pub skipped: u64,
+    /// Of them, those skipped before the first frame went out.
+    pub skipped_at_start: u64,
     /// Frames whose pose the body could not be built from (sent as the empty room), or that
     /// the worker could not render (sent empty).
     pub render_failures: u64,
@@ -80,8 +82,8 @@ pub struct BodyDepthSensor {
 
 impl BodyDepthSensor {
     /// `sim` (the timing and truth of `sensor_id` playing `lap`) rendered from the sensor's
-    /// pose in `rig`; `seed` seeds the sensor noise. Starts the render worker on the first
-    /// instant.
+    /// pose in `rig`; `seed` seeds the sensor noise. Starts the render worker, idle until
+    /// [`Self::begin_at`] or the first capture.
     ///
     /// # Errors
     /// The sensor is not in the rig, the renderer refuses its parameters, or no thread can
@@ -119,17 +121,26 @@ impl BodyDepthSensor {
             .name(format!("render {sensor_id}"))
             .spawn(move || render_worker(renderer, &lap, &job_rx, &done_tx))
             .map_err(|e| eyre!("{NODE}: starting the render thread: {e}"))?;
-        let mut sensor = Self {
+        Ok(Self {
             sim,
             jobs,
             done,
             in_flight: None,
             pending: None,
             skipped: 0,
+            skipped_at_start: 0,
             render_failures: 0,
-        };
-        sensor.submit(sensor.sim.next_due());
-        Ok(sensor)
+        })
+    }
+
+    /// Starts the stream at host time `now` ([`SimulatedSensor::begin_at`]) and has the
+    /// worker render its first instant ahead. (Without it the first frame is rendered when
+    /// it is captured, late by one render.)
+    pub fn begin_at(&mut self, now: i64) {
+        self.sim.begin_at(now);
+        if self.in_flight.is_none() {
+            self.submit(self.sim.next_due());
+        }
     }
 
     fn submit(&mut self, t_nanos: i64) {
@@ -187,6 +198,9 @@ impl BodyDepthSensor {
             later.truth = truth;
             captured = later;
             self.skipped += 1;
+            if captured.frame.seq == self.skipped {
+                self.skipped_at_start += 1;
+            }
         }
         let t = captured.true_stamp_nanos.unwrap_or(now);
         let depth_mm = self.depth_at(t);
@@ -220,7 +234,7 @@ mod tests {
     /// A body-depth source captures on the skeleton source's grid: each depth frame has the
     /// capture's seq and sensor-clock stamp, the body stands nearer than the room behind it
     /// where the walker is, k1 sends the ground truth; a host behind by two periods skips
-    /// two instants (seq jumps by 3) and keeps their truth.
+    /// two instants (seq jumps by 3) and keeps their truth. A source begun late skips none.
     #[test]
     fn renders_the_walker_on_the_frame_grid() {
         let c =
@@ -265,6 +279,33 @@ mod tests {
             later.truth.first().map(|g| g.true_stamp_nanos) <= Some(next),
             "the skipped instants' truth is sent"
         );
+
+        // Made, then begun half a second later (a motion to load, the daemon to reach): the
+        // first frame is due then and nothing is skipped; without the begin, the instants in
+        // between are skipped, counted as before the first frame.
+        let late = 500_000_000;
+        let mut begun = Source::new(&c, 0).unwrap();
+        begun.begin_at(late);
+        let due = begun.next_due().unwrap();
+        assert!(due >= late && due < late + period, "{due}");
+        let first = begun.capture(due, &mut sensor_clock(&c, 0)).unwrap();
+        assert_eq!(first.frame.seq, 0);
+        let mut unbegun = Source::new(&c, 0).unwrap();
+        let late_first = unbegun.capture(due, &mut sensor_clock(&c, 0)).unwrap();
+        let (Source::BodyDepth(b), Source::BodyDepth(u)) = (&begun, &unbegun) else {
+            panic!("not body-depth sources");
+        };
+        assert_eq!((b.skipped, b.skipped_at_start), (0, 0));
+        assert_eq!(
+            (u.skipped, u.skipped_at_start),
+            (late_first.frame.seq, late_first.frame.seq)
+        );
+        assert!(u.skipped >= 14, "{} skipped", u.skipped);
+        assert_eq!(
+            begun.take_depth().unwrap().depth_mm,
+            unbegun.take_depth().unwrap().depth_mm
+        );
+
         // Its depth is sent on `depth`: the lab-target depth stream cannot be set with it.
         let err = Config::from_lookup(lookup(&[
             ("SENSOR_ID", "k1"),

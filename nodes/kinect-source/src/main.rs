@@ -71,6 +71,7 @@ pub fn run(
     let mut counters = Counters::default();
     let stamp = RigStamp::new(&config.sensor_id, &config.rig);
     let mut first_frame_nanos = None;
+    source.begin_at(now_nanos());
     loop {
         while let Some(due) = source.next_due().filter(|due| *due <= now_nanos()) {
             let Some(captured) = source.capture(due.max(now_nanos()), &mut clock) else {
@@ -91,9 +92,13 @@ pub fn run(
             counters.frames_sent += 1;
             if planned {
                 info!(
-                    "stopping after {} frames ({})",
+                    "stopping after {} frames ({}){}",
                     counters.frames_sent,
-                    config::STOP_AFTER_SECS
+                    config::STOP_AFTER_SECS,
+                    source
+                        .losses()
+                        .map(|l| format!("; {l}"))
+                        .unwrap_or_default()
                 );
                 return Ok(counters);
             }
@@ -140,8 +145,14 @@ pub fn run(
         }
     }
     info!(
-        "{} frames sent, {} NTP requests answered, {} malformed inputs",
-        counters.frames_sent, counters.ntp_answered, counters.malformed
+        "{} frames sent, {} NTP requests answered, {} malformed inputs{}",
+        counters.frames_sent,
+        counters.ntp_answered,
+        counters.malformed,
+        source
+            .losses()
+            .map(|l| format!("; {l}"))
+            .unwrap_or_default()
     );
     Ok(counters)
 }

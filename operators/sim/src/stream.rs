@@ -202,6 +202,18 @@ impl SimulatedSensor {
         self.next_nanos
     }
 
+    /// Moves the first capture to the first instant of this sensor's grid at or after host
+    /// time `now`, so that a source which took time to get ready (loading the motion, building
+    /// a renderer, connecting to the daemon) starts its stream then, not with a backlog of
+    /// instants already past. Does nothing once a frame has been captured, or to an earlier
+    /// `now`.
+    pub fn begin_at(&mut self, now: i64) {
+        if self.seq == 0 && now > self.next_nanos {
+            let phase = self.next_nanos.rem_euclid(self.period_nanos);
+            self.next_nanos = next_on_grid(now, self.period_nanos, phase);
+        }
+    }
+
     /// Whether this sensor sends the ground truth.
     #[must_use]
     pub fn sends_truth(&self) -> bool {
@@ -293,6 +305,14 @@ impl ReplayedSensor {
     #[must_use]
     pub fn next_due(&self) -> Option<i64> {
         (self.at < self.frames.len()).then_some(self.next_nanos)
+    }
+
+    /// The first frame goes out at host time `now` rather than at the time the sensor was
+    /// made (see [`SimulatedSensor::begin_at`]). Does nothing once a frame has been sent.
+    pub fn begin_at(&mut self, now: i64) {
+        if self.seq == 0 {
+            self.next_nanos = self.next_nanos.max(now);
+        }
     }
 
     /// Whether every frame has been played (never when looped): the last one sent ended the
@@ -466,6 +486,16 @@ impl RecordedSensor {
         self.at >= self.frames.len()
     }
 
+    /// In real time, the play starts at host time `now` rather than at the time the sensor was
+    /// made (see [`SimulatedSensor::begin_at`]). Does nothing once a frame has been played, or
+    /// faster than real time, where the receiver starts the play ([`Self::receiver_ready`]).
+    pub fn begin_at(&mut self, now: i64) {
+        if self.at == 0 && self.pace == Pace::RealTime {
+            self.made_nanos = self.made_nanos.max(now);
+            self.start_nanos = Some(self.made_nanos);
+        }
+    }
+
     /// The receiver of the frames is listening: faster than real time, the play starts at
     /// host time `now`.
     pub fn receiver_ready(&mut self, now: i64) {
@@ -608,6 +638,79 @@ mod tests {
         assert!(!k3.capture(&mut clock()).truth.is_empty());
         let err = SimulatedSensor::new(&rig, walker_lap(), &params("k9"), start).unwrap_err();
         assert!(err.to_string().contains("k1, k2, k3"), "{err}");
+    }
+
+    /// A source begun after it was made starts on its grid at the later instant, with seq 0;
+    /// an earlier instant or a begin after the first capture changes nothing. A replay and a
+    /// real-time recording start their first frame then too.
+    #[test]
+    fn begin_at_moves_only_the_first_capture() {
+        let rig = Rig::builtin("thesis").unwrap();
+        let start = 1_700_000_000_000_000_000;
+        let period = 33_333_333;
+        let mut clock = SensorClock::new(SimClock::new(0, 0.0), start, Simulator::sensor_rng(1, 0));
+        let mut k2 = SimulatedSensor::new(&rig, walker_lap(), &params("k2"), start).unwrap();
+        let made = k2.next_due();
+        k2.begin_at(start - 1_000_000_000);
+        assert_eq!(k2.next_due(), made, "an earlier start changes nothing");
+        let later = start + 500_000_000;
+        k2.begin_at(later);
+        let first = k2.next_due();
+        assert!(
+            first >= later && first < later + period,
+            "{first} vs {later}"
+        );
+        assert_eq!(
+            (first - made).rem_euclid(period),
+            0,
+            "off the sensor's grid"
+        );
+        let c = k2.capture(&mut clock);
+        assert_eq!((c.frame.seq, c.true_stamp_nanos), (0, Some(first)));
+        k2.begin_at(later + 10 * period);
+        assert_eq!(k2.next_due(), first + period, "begun twice");
+
+        let sdk = SdkFrame {
+            frame_number: 0,
+            time_ms: None,
+            joints: Vec::new(),
+        };
+        let mut replay = ReplayedSensor::new(
+            "k1".into(),
+            vec![sdk.clone(), sdk],
+            period,
+            false,
+            false,
+            start,
+        );
+        replay.begin_at(later);
+        assert_eq!(replay.next_due(), Some(later));
+        replay.capture(later, &mut clock).unwrap();
+        replay.begin_at(later + 10 * period);
+        assert_eq!(replay.next_due(), Some(later + period));
+
+        let recording = vec![FrameTiming {
+            sensor_id: "k1".into(),
+            seq: 0,
+            local_stamp_nanos: 0,
+            server_stamp_nanos: Some(0),
+            uncertainty_nanos: Some(0),
+            offset_nanos: None,
+            drift_ppm: None,
+            true_stamp_nanos: None,
+            received_nanos: None,
+            joints: Vec::new(),
+        }];
+        let mut live = RecordedSensor::new(&recording, "k1", 0, Pace::RealTime, start);
+        live.begin_at(later);
+        assert_eq!(live.next_due(), Some(later));
+        let mut fast = RecordedSensor::new(&recording, "k1", 0, Pace::FAST, start);
+        fast.begin_at(later);
+        assert_eq!(
+            fast.next_due(),
+            Some(start + FAST_START_TIMEOUT_NANOS),
+            "faster than real time the receiver starts the play"
+        );
     }
 
     /// A recording's sensor plays in recorded order on the shared timeline: in real time at
