@@ -599,7 +599,7 @@ impl LegTracker {
         let hip_h = self.config.hip_height_ratio * stature;
         let points = LegPoints::gather(cloud, piece, &ff, hip_h);
         if points.pts.len() < 50 {
-            return self.coast(&ff, out);
+            return self.coast(out);
         }
         let predicted: Option<[LegPose; 2]> = self.legs.as_ref().map(|l| {
             [
@@ -617,19 +617,19 @@ impl LegTracker {
             }),
             None => {
                 let Some((c0, c1)) = two_means(&points.pts, 0.1 * hip_h, 0.6 * hip_h) else {
-                    return self.coast(&ff, out);
+                    return self.coast(out);
                 };
                 Box::new(nearer_mean(c0, c1))
             }
         };
         let mut split = points.split(&*assign);
-        let last = self.legs.clone();
+        let last = self.legs.as_ref();
         let fitter = ChainFitter {
             ff: &ff,
             input: self.fit_input(hip_h, stature),
-            last: last.as_ref(),
+            last,
             // Someone standing still: hips and knees of both legs still since the last frame.
-            body_still: last.as_ref().is_some_and(|l| {
+            body_still: last.is_some_and(|l| {
                 l.iter().all(|t| {
                     (t.pose.hip - t.previous.hip).norm() < STILL_BODY_M
                         && (t.pose.knee - t.previous.knee).norm() < STILL_BODY_M
@@ -666,6 +666,11 @@ impl LegTracker {
     /// What fitting a leg needs of the tracker: the hip height, the ankle over the sole, and
     /// the segment lengths, held or, while learning, as measured so far once there are a few.
     fn fit_input(&self, hip_h: f64, stature: f64) -> FitInput {
+        let thigh_median = if self.thighs.len() >= 3 {
+            median(&mut self.thighs.clone())
+        } else {
+            None
+        };
         FitInput {
             hip_h,
             ankle_above_sole_m: self.config.ankle_height_ratio * stature,
@@ -673,15 +678,10 @@ impl LegTracker {
                 if self.thighs.len() < 5 || self.shanks.len() < 5 {
                     return None;
                 }
-                let half =
-                    0.5 * (median(&mut self.thighs.clone())? + median(&mut self.shanks.clone())?);
+                let half = 0.5 * (thigh_median? + median(&mut self.shanks.clone())?);
                 Some((half, half))
             }),
-            thigh_for_shank: if self.thighs.len() >= 3 {
-                median(&mut self.thighs.clone())
-            } else {
-                None
-            },
+            thigh_for_shank: thigh_median,
             min_band_points: self.config.min_band_points as f64,
         }
     }
@@ -843,7 +843,7 @@ impl LegTracker {
     }
 
     /// No fit this frame: the model coasts (inferred) until it has missed too many frames.
-    fn coast(&mut self, _ff: &FloorFrame, out: &mut TrackedFrame) {
+    fn coast(&mut self, out: &mut TrackedFrame) {
         let Some(mut legs) = self.legs.take() else {
             return;
         };
