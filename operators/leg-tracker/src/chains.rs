@@ -312,6 +312,81 @@ impl ChainFitter<'_> {
     }
 }
 
+/// A point of the legs farther than this from both fitted leg axes is explained by neither
+/// chain, metres (a leg is about 0.15 m across, its axis runs down its middle).
+const UNEXPLAINED_M: f64 = 0.12;
+
+/// Both chains on one leg leave the other leg's points unexplained: when more than this share
+/// of the points below the hips (and at least [`MIN_UNEXPLAINED`]) are, the legs are split
+/// afresh.
+const UNEXPLAINED_SHARE: f64 = 0.15;
+
+/// See [`UNEXPLAINED_SHARE`].
+const MIN_UNEXPLAINED: usize = 50;
+
+impl ChainFitter<'_> {
+    /// The points of `points` (between 0.1 of the hip height and the hip) that lie farther than
+    /// [`UNEXPLAINED_M`] from both chains' fitted axes, and all of them counted.
+    fn unexplained(&self, points: &LegPoints, fits: &ChainFits) -> (usize, usize) {
+        let [Some(a), Some(b)] = fits.fit else {
+            return (0, 0);
+        };
+        let lo = 0.1 * self.input.hip_h;
+        let (mut far, mut all) = (0, 0);
+        for (p, h) in points.pts.iter().filter(|p| p.1 >= lo) {
+            all += 1;
+            let d = (p - a.pose.axis_at(self.ff, *h))
+                .norm()
+                .min((p - b.pose.axis_at(self.ff, *h)).norm());
+            far += usize::from(d > UNEXPLAINED_M);
+        }
+        (far, all)
+    }
+
+    /// Both chains fitted to one leg (a start from a frame whose other lower leg was out of
+    /// view, both taken from one inclined leg) leave the other leg's points to neither: with
+    /// many such points, the legs are split afresh over the whole height below the hips, and
+    /// the split is kept when it shows two thighs and leaves under half as many points
+    /// unexplained. The new fits go to the chains whose hips they lie nearer (summed).
+    pub fn resplit_merged_chains(
+        &self,
+        points: &LegPoints,
+        share: f64,
+        split: &mut Split,
+        fits: &mut ChainFits,
+    ) {
+        let (far, all) = self.unexplained(points, fits);
+        if far < MIN_UNEXPLAINED || (far as f64) < UNEXPLAINED_SHARE * all as f64 {
+            return;
+        }
+        let hip_h = self.input.hip_h;
+        let Some((c0, c1)) = two_means(&points.pts, 0.1 * hip_h, 0.9 * hip_h) else {
+            return;
+        };
+        let (bands, mut low) = points.split(&nearer_mean(c0, c1));
+        let mut alt = self.fit(&bands);
+        let [Some(a), Some(b)] = alt.fit else {
+            return;
+        };
+        if a.thigh_seen < share
+            || b.thigh_seen < share
+            || self.unexplained(points, &alt).0 * 2 > far
+        {
+            return;
+        }
+        let [Some(x), Some(y)] = fits.fit else {
+            return;
+        };
+        let d = |p: &LegFit, q: &LegFit| (p.pose.hip - q.pose.hip).norm();
+        if d(&a, &y) + d(&b, &x) < d(&a, &x) + d(&b, &y) {
+            alt.swap();
+            low.swap(0, 1);
+        }
+        *fits = alt;
+        *split = (bands, low);
+    }
+}
+
 /// A leg whose thigh shows less than the tracked share (`share`) while the other leg is seen
 /// whole is mostly behind that other leg when its shank shows little too, or when its knee came
 /// out beside the other's: the few points the nearest predicted axis gives it fit a leg that

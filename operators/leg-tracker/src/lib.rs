@@ -533,7 +533,9 @@ impl LegTracker {
             .collect();
         let mask: Vec<bool> = piece.iter().map(|&p| p > 0).collect();
         let mut out = TrackedFrame::empty(Status::Tracking, cloud.valid, Some(floor));
-        out.people = people.len();
+        // A leg cut off by the image's edge, taken in as a limb, looked like someone partly
+        // out of view.
+        out.people = people.iter().filter(|c| !limbs.contains(&c.label)).count();
         out.person_pixels = mask.iter().filter(|m| **m).count();
         out.person_share = out.person_pixels as f64 / cloud.valid as f64;
         self.frames += 1;
@@ -646,6 +648,7 @@ impl LegTracker {
             drop_legs_behind(&mut fits.fit, share);
         }
         fitter.resplit_lost_chain(&points, share, &mut split, &mut fits);
+        fitter.resplit_merged_chains(&points, share, &mut split, &mut fits);
         self.learn_lengths(&fits);
         self.carry_unseen_hips(&mut fits.fit);
         let Some(tracks) = self.update_tracks(&fits) else {

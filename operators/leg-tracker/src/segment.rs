@@ -295,8 +295,20 @@ const LIMB_MIN_TOP_M: f64 = 0.15;
 const MAX_LIMB_AREA_M2: f64 = 0.15;
 /// A limb touches the person in the image within this many pixels.
 const LIMB_TOUCH_PX: usize = 2;
+/// A cut-off leg reaches above this share of the person's top height (above the knee, 0.285 H:
+/// its thigh shows) ...
+const LEG_MIN_TOP_SHARE: f64 = 0.3;
+/// ... and stays below this one (the hip joint is at 0.53 H, the buttock's lower edge lower).
+const LEG_MAX_TOP_SHARE: f64 = 0.6;
+/// A cut-off leg comes within this depth of the person's pixels it touches, metres: the
+/// other leg crossing in front of it, or the buttock behind a thigh swung back, lie about
+/// 10-20 cm off, where a neighbouring object is usually farther.
+const LEG_GAP_M: f32 = 0.2;
+/// A cut-off leg touches the person in the image within this many pixels: the sensor drops
+/// the pixels along a depth step, a band up to 3 pixels wide.
+const LEG_TOUCH_PX: usize = 4;
 
-/// Labels of the components that are the `person`'s limbs cut off from it by occlusion.
+/// Labels of the components that are the `person`'s limbs cut off from it by a depth jump.
 ///
 /// A leg seen past the other leg may show its lower part only, its knee hidden behind the
 /// near leg: the depth jump at the near leg's edge then separates it from the person's
@@ -306,6 +318,16 @@ const LIMB_TOUCH_PX: usize = 2;
 /// smaller than [`MAX_LIMB_AREA_M2`], has its centroid within `max_person_radius_m` of the
 /// person's (horizontally), and touches the person's pixels in the image where it lies behind
 /// them (the person hides its connection).
+///
+/// A whole leg can be cut off as well: where the other leg crosses in front of it and the
+/// step at its top (a thigh swung back stands proud of the buttock) is lined with dropped
+/// pixels. The person's mask then loses a leg, and both leg chains are fitted to the other
+/// one. Such a piece reaches above [`LEG_MIN_TOP_SHARE`] of the person's height and stays
+/// below [`LEG_MAX_TOP_SHARE`], stands on the floor or is cut by the image's edge (near the
+/// sensor the lower edge cuts the foot off, and the piece may then look like someone partly
+/// out of view), is smaller than [`MAX_LIMB_AREA_M2`], lies within `max_person_radius_m` of
+/// the person, and comes within [`LEG_GAP_M`] in depth of the person's pixels it touches in
+/// the image.
 pub(crate) fn cut_off_limbs(
     labels: &[u32],
     cloud: &Cloud,
@@ -316,40 +338,50 @@ pub(crate) fn cut_off_limbs(
 ) -> Vec<u32> {
     let up = floor.up_in_kinect;
     let horizontal = |d: Vector3<f64>| (d - up * up.dot(&d)).norm();
-    let mut candidates: Vec<u32> = comps
+    let top = person.height_range_m.1;
+    // Each candidate with whether it may be a limb behind the person and whether a leg.
+    let mut candidates: Vec<(u32, bool, bool)> = comps
         .iter()
         .filter(|c| {
             c.label != person.label
-                && !c.person_like(params)
-                && c.height_range_m.0 < params.max_foot_height_m
-                && c.height_range_m.1 < LIMB_TOP_SHARE * person.height_range_m.1
                 && c.height_range_m.1 > LIMB_MIN_TOP_M
                 && c.area_m2 < MAX_LIMB_AREA_M2
                 && horizontal(c.centroid - person.centroid) < params.max_person_radius_m
         })
-        .map(|c| c.label)
+        .map(|c| {
+            let (lo, hi) = c.height_range_m;
+            let behind = !c.person_like(params)
+                && lo < params.max_foot_height_m
+                && hi < LIMB_TOP_SHARE * top;
+            let leg = (LEG_MIN_TOP_SHARE * top..LEG_MAX_TOP_SHARE * top).contains(&hi)
+                && (c.at_border || lo < params.max_foot_height_m && !c.person_like(params));
+            (c.label, behind, leg)
+        })
+        .filter(|&(_, behind, leg)| behind || leg)
         .collect();
     // The pieces are small: look around their pixels for the person's, nearer the camera.
     let mut touching = Vec::new();
-    let r = LIMB_TOUCH_PX;
     for j in 0..PIXELS {
         if candidates.is_empty() {
             break;
         }
         let l = labels[j];
-        let Some(c) = candidates.iter().position(|&c| c == l) else {
+        let Some(c) = candidates.iter().position(|&(c, _, _)| c == l) else {
             continue;
         };
+        let (_, behind, leg) = candidates[c];
+        let r = if leg { LEG_TOUCH_PX } else { LIMB_TOUCH_PX };
         let (u, v) = (j % WIDTH, j / WIDTH);
         let z = cloud.points[j].z;
-        let hidden = (v.saturating_sub(r)..(v + r + 1).min(HEIGHT)).any(|vv| {
+        let joined = (v.saturating_sub(r)..(v + r + 1).min(HEIGHT)).any(|vv| {
             (u.saturating_sub(r)..(u + r + 1).min(WIDTH)).any(|uu| {
                 let i = vv * WIDTH + uu;
-                labels[i] == person.label && cloud.points[i].z < z
+                let zp = cloud.points[i].z;
+                labels[i] == person.label && (behind && zp < z || leg && (zp - z).abs() < LEG_GAP_M)
             })
         });
-        if hidden {
-            touching.push(candidates.swap_remove(c));
+        if joined {
+            touching.push(candidates.swap_remove(c).0);
         }
     }
     touching

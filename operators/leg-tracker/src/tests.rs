@@ -1,5 +1,5 @@
 use nalgebra::{Isometry3, Point3};
-use trigait_body_render::{Body, BodyShape, RenderParams, Renderer, Room};
+use trigait_body_render::{Body, BodyShape, Part, RenderParams, Renderer, Room};
 use trigait_motion::{WalkerParams, there_and_back, walker};
 use trigait_rig::Rig;
 use trigait_skeleton::{Joint, MotionClip, TrackingState};
@@ -102,15 +102,23 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score>
         let mut by_state: [[Vec<f64>; 3]; 2] = Default::default();
         let mut height_err: [Vec<f64>; 3] = Default::default();
         let up = pose.rotation.inverse() * nalgebra::Vector3::z();
-        let (mut swaps, mut reported, mut tracked) = (0, 0, 0);
+        let (mut swaps, mut reported, mut tracked, mut present) = (0, 0, 0, 0);
         let (mut foot_err, mut foot_height) = (Vec::new(), Vec::new());
         for f in 0..frames {
             let t = f as f64 / RATE_HZ;
             let tl = t % lap.duration_secs();
+            // A two-lane lap's turns are gaps: nobody is there (the empty room is rendered).
             let rendered = renderer
                 .render_pose(&BodyShape::default(), |j| lap.position_at(j, tl))
-                .unwrap();
+                .unwrap_or_else(|_| {
+                    assert!(lap.name().contains("endless"), "{} at {tl} s", lap.name());
+                    renderer.render_bodies(&[], Vec::new())
+                });
             let out = tracker.track(&rendered.depth);
+            if rendered.joints_in_kinect.is_empty() {
+                continue;
+            }
+            present += 1;
             let pairs = [
                 (Joint::HipLeft, Joint::HipRight, 0),
                 (Joint::KneeLeft, Joint::KneeRight, 1),
@@ -142,8 +150,14 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score>
                     foot_height.push(up.dot(&(tj.position_in_kinect - g)));
                 }
             }
-            if sides_swapped(&out, &rendered) == Some(true) && !near_turn(t, lap.duration_secs()) {
-                eprintln!("{}: legs swapped at {t:.2} s", sensor.id);
+            let spun = !lap.name().contains("endless") && near_turn(t, lap.duration_secs());
+            if sides_swapped(&out, &rendered) == Some(true) && !spun {
+                eprintln!(
+                    "{} {} seed {seed}: legs swapped at {t:.2} s ({:.2} s into the lap's half)",
+                    lap.name(),
+                    sensor.id,
+                    (t % lap.duration_secs()) % (lap.duration_secs() / 2.0)
+                );
                 swaps += 1;
             }
         }
@@ -162,7 +176,7 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score>
             rms[0],
             rms[1],
             rms[2],
-            frames * 6
+            present * 6
         );
         let rms_of =
             |e: &Vec<f64>| (e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64).sqrt();
@@ -199,7 +213,7 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score>
             medians: [medians[0], medians[1], medians[2]],
             foot,
             reported,
-            asked: frames * 6,
+            asked: present * 6,
             swaps,
         });
     }
@@ -248,6 +262,45 @@ const FOOT_MEDIAN_M: f64 = 0.035;
 /// The same, median height error (tracker − truth), metres. Measured +0.3 to +0.9 cm (+2.0 to
 /// +3.2 cm before).
 const FOOT_HEIGHT_BIAS_M: f64 = 0.015;
+
+/// A whole leg can be cut off too: on k2, 0.37–0.47 s into the walker's lap, the other leg
+/// crosses in front of it and a band of dropped pixels lines the step at its top. The mask held
+/// under 30 % of that leg's pixels, so both chains were fitted to the other leg and the sides
+/// came out swapped for those frames on some noise seeds. Now each leg's thigh and shank have
+/// most of their rendered pixels in the mask on every frame there.
+#[test]
+fn a_whole_leg_cut_off_by_the_other_stays_in_the_mask() {
+    let pose = Rig::builtin("thesis").unwrap().sensors[1].world_from_kinect;
+    let lap = lap();
+    let mut renderer = seeded_renderer(&pose, 7);
+    let mut tracker = LegTracker::new(config_for(&pose)).unwrap();
+    let legs = [
+        [Part::ThighLeft.label(), Part::ShankLeft.label()],
+        [Part::ThighRight.label(), Part::ShankRight.label()],
+    ];
+    let mut shares = Vec::new();
+    for f in 0..=14 {
+        let t = f as f64 / RATE_HZ;
+        let frame = renderer
+            .render_pose(&BodyShape::default(), |j| lap.position_at(j, t))
+            .unwrap();
+        let out = tracker.track(&frame.depth);
+        if f < 11 {
+            continue;
+        }
+        for leg in &legs {
+            let seen = |i: &usize| leg.contains(&frame.labels[*i]) && frame.depth.as_mm()[*i] > 0;
+            let n = (0..frame.labels.len()).filter(seen).count();
+            let kept = (0..frame.labels.len())
+                .filter(|i| seen(i) && out.person_mask.get(*i).copied().unwrap_or(false))
+                .count();
+            assert!(n > 300, "{n} pixels of a leg at {t:.2} s");
+            shares.push(kept as f64 / n as f64);
+        }
+    }
+    eprintln!("share of each leg's pixels in the mask, frames 11-14: {shares:.2?}");
+    assert!(shares.iter().all(|s| *s > 0.7), "{shares:.2?}");
+}
 
 /// Seen past the other leg, a lower leg whose knee that leg hides is cut off from the person's
 /// component by the depth jump at the near leg's edge. It stays in the person's mask: on k1,
@@ -891,11 +944,44 @@ fn over_ten_noise_seeds() {
     let Some(laps) = all_laps() else {
         return;
     };
+    ten_noise_seeds(&laps);
+}
+
+/// [`over_ten_noise_seeds`] on the walkway as the depth graph paces it: out on one lane, back
+/// on a second 1 m to the side, turning unseen for a second at each end (no instant spin, so
+/// no frame is left out of the swap count).
+#[test]
+#[ignore = "a measurement run by hand, about 2 minutes"]
+fn over_ten_noise_seeds_on_two_lanes() {
+    let mut laps = vec![(
+        "walker".to_string(),
+        walker(&WalkerParams::default(), 3.0, 100.0).unwrap(),
+    )];
+    for file in MOCAP_WALKS {
+        let Some(path) = trigait_test_data::shared_file(file) else {
+            return;
+        };
+        laps.push((
+            file.to_string(),
+            trigait_motion::load_motion(&path).unwrap(),
+        ));
+    }
+    let laps: Vec<(String, MotionClip)> = laps
+        .into_iter()
+        .map(|(name, clip)| {
+            let lap = trigait_motion::walkway_loop(&clip.placed_on_walkway(), 1.0, 1.0).unwrap();
+            (name, lap)
+        })
+        .collect();
+    ten_noise_seeds(&laps);
+}
+
+fn ten_noise_seeds(laps: &[(String, MotionClip)]) {
     let seeds: Vec<u64> = (1..=10).collect();
     let runs = std::sync::Mutex::new(Vec::new());
     std::thread::scope(|scope| {
         for part in seeds.chunks(seeds.len().div_ceil(2)) {
-            let (laps, runs) = (&laps, &runs);
+            let runs = &runs;
             scope.spawn(move || {
                 for &seed in part {
                     for (name, lap) in laps {
