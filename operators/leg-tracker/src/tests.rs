@@ -363,8 +363,8 @@ fn all_laps() -> Option<Vec<(String, MotionClip)>> {
 /// The goal is the walker's: ≤ 4 cm median per joint class on every sensor, no swap. It is
 /// met for CMU, at the edge for its k2 hips, and missed for the Rajagopal hips. Measured
 /// (median hip / knee / ankle; swapped frames of 300): CMU 07_01 k1 3.6 / 2.9 / 3.5 cm, 0; k2
-/// 4.0 / 3.0 / 3.5 cm, 0; k3 4.0 / 2.7 / 3.1 cm, 0. Rajagopal k1 4.6 / 3.5 / 2.8 cm, 0; k2 4.6 /
-/// 3.6 / 2.9 cm, 0; k3 4.4 / 3.2 / 2.8 cm, 0; feet (median) 5.7–5.8 cm (CMU), 8.1–8.4 cm (Rajagopal). The renderer and the tracker
+/// 3.9 / 2.9 / 3.1 cm, 0; k3 3.9 / 2.8 / 3.1 cm, 0. Rajagopal k1 4.5 / 3.4 / 2.8 cm, 0; k2 4.5 /
+/// 3.5 / 3.0 cm, 0; k3 4.4 / 3.3 / 2.8 cm, 0; feet (median) 5.7–5.8 cm (CMU), 8.1–8.4 cm (Rajagopal). The renderer and the tracker
 /// are deterministic, so the test pins that state (≤ 5.5 cm, no swapped frame, feet ≤ 9 cm) and
 /// prints where the goal is missed; [`swapped_frames_over_noise_seeds`] counts the swaps over
 /// other draws of the sensor noise.
@@ -408,10 +408,10 @@ fn mocap_walks_through_the_renderer() {
 /// The walker and the two mocap walks on the thesis rig over three more draws of the sensor
 /// noise (seeds 1–3; the other tests run seed 7): the frames whose legs are swapped, per walk
 /// and sensor. The goal is none; seed 7 has one (walker k2), but that is one draw: seeds 1–3
-/// swap 9 of the 8100 frames (0.1 %; 5 on k1, 4 on k2): 3 fall 0.35–0.5 s after one of the
-/// lap's instant turns, 5 within 0.2 s before one (the walkway's ends), 1 in plain walking.
-/// The test pins that (≤ 13) and prints each run's count and medians;
-/// [`over_ten_noise_seeds`] measures more.
+/// swap none of the 8100 frames (9 before a whole leg cut off by the other was taken into the
+/// mask: most fell where that leg was missing). The test allows 3 and prints each run's count
+/// and medians; [`over_ten_noise_seeds`] and [`over_ten_noise_seeds_on_two_lanes`] measure
+/// more.
 #[test]
 fn swapped_frames_over_noise_seeds() {
     let Some(laps) = all_laps() else {
@@ -431,7 +431,7 @@ fn swapped_frames_over_noise_seeds() {
         }
     }
     eprintln!("swapped frames over seeds 1-3: {total} of {frames}");
-    assert!(total <= 13, "{total} swapped frames");
+    assert!(total <= 3, "{total} swapped frames");
 }
 
 /// The real Kinect v2 frame of a person in a room, against the SDK of the same instant.
