@@ -359,7 +359,8 @@ pub(crate) fn cut_off_limbs(
         })
         .filter(|&(_, behind, leg)| behind || leg)
         .collect();
-    // The pieces are small: look around their pixels for the person's, nearer the camera.
+    // The pieces are small: look around their pixels for the person's, nearer the camera (a
+    // limb behind) or within `LEG_GAP_M` in depth either way (a leg).
     let mut touching = Vec::new();
     for j in 0..PIXELS {
         if candidates.is_empty() {
