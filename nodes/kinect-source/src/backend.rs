@@ -219,7 +219,7 @@ impl Source {
     pub fn losses(&self) -> Option<String> {
         match self {
             Source::BodyDepth(s) => Some(format!(
-                "{} instants skipped because the host was behind ({} before the first frame), {} rendered as the empty room (no body pose at that instant)",
+                "{} instants skipped because the host was behind ({} before the first frame), {} rendered as the empty room or sent empty (no body pose at that instant, or no render thread)",
                 s.skipped, s.skipped_at_start, s.render_failures
             )),
             _ => None,

@@ -316,7 +316,7 @@ impl ChainFitter<'_> {
 /// chain, metres (a leg is about 0.15 m across, its axis runs down its middle).
 const UNEXPLAINED_M: f64 = 0.12;
 
-/// Both chains on one leg leave the other leg's points unexplained: when more than this share
+/// Both chains on one leg leave the other leg's points unexplained: when at least this share
 /// of the points below the hips (and at least [`MIN_UNEXPLAINED`]) are, the legs are split
 /// afresh.
 const UNEXPLAINED_SHARE: f64 = 0.15;
@@ -345,9 +345,10 @@ impl ChainFitter<'_> {
 
     /// Both chains fitted to one leg (a start from a frame whose other lower leg was out of
     /// view, both taken from one inclined leg) leave the other leg's points to neither: with
-    /// many such points, the legs are split afresh over the whole height below the hips, and
-    /// the split is kept when it shows two thighs and leaves under half as many points
-    /// unexplained. The new fits go to the chains whose hips they lie nearer (summed).
+    /// many such points, the legs are split afresh by their points between 0.1 and 0.9 of the
+    /// hip height (thighs included), and the split is kept when it shows two thighs and leaves
+    /// at most half as many points unexplained. The new fits go to the chains whose hips they
+    /// lie nearer (summed).
     pub fn resplit_merged_chains(
         &self,
         points: &LegPoints,
@@ -363,7 +364,7 @@ impl ChainFitter<'_> {
         let Some((c0, c1)) = two_means(&points.pts, 0.1 * hip_h, 0.9 * hip_h) else {
             return;
         };
-        let (bands, mut low) = points.split(&nearer_mean(c0, c1));
+        let (mut bands, mut low) = points.split(&nearer_mean(c0, c1));
         let mut alt = self.fit(&bands);
         let [Some(a), Some(b)] = alt.fit else {
             return;
@@ -380,6 +381,7 @@ impl ChainFitter<'_> {
         let d = |p: &LegFit, q: &LegFit| (p.pose.hip - q.pose.hip).norm();
         if d(&a, &y) + d(&b, &x) < d(&a, &x) + d(&b, &y) {
             alt.swap();
+            bands.swap(0, 1);
             low.swap(0, 1);
         }
         *fits = alt;

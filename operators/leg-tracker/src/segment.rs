@@ -323,9 +323,9 @@ const LEG_TOUCH_PX: usize = 4;
 /// step at its top (a thigh swung back stands proud of the buttock) is lined with dropped
 /// pixels. The person's mask then loses a leg, and both leg chains are fitted to the other
 /// one. Such a piece reaches above [`LEG_MIN_TOP_SHARE`] of the person's height and stays
-/// below [`LEG_MAX_TOP_SHARE`], stands on the floor or is cut by the image's edge (near the
-/// sensor the lower edge cuts the foot off, and the piece may then look like someone partly
-/// out of view), is smaller than [`MAX_LIMB_AREA_M2`], lies within `max_person_radius_m` of
+/// below [`LEG_MAX_TOP_SHARE`], stands on the floor or is cut by the image's edge and reaches
+/// below [`LEG_MIN_TOP_SHARE`] (near the sensor the lower edge cuts the foot off, and the piece
+/// may then look like someone partly out of view), is smaller than [`MAX_LIMB_AREA_M2`], lies within `max_person_radius_m` of
 /// the person, and comes within [`LEG_GAP_M`] in depth of the person's pixels it touches in
 /// the image.
 pub(crate) fn cut_off_limbs(
@@ -353,8 +353,10 @@ pub(crate) fn cut_off_limbs(
             let behind = !c.person_like(params)
                 && lo < params.max_foot_height_m
                 && hi < LIMB_TOP_SHARE * top;
+            // Cut by the image's edge, it need not reach the floor in view, but it must reach
+            // below the knee (a hand or forearm cut off by a side edge does not).
             let leg = (LEG_MIN_TOP_SHARE * top..LEG_MAX_TOP_SHARE * top).contains(&hi)
-                && (c.at_border || lo < params.max_foot_height_m && !c.person_like(params));
+                && (lo < params.max_foot_height_m || c.at_border && lo < LEG_MIN_TOP_SHARE * top);
             (c.label, behind, leg)
         })
         .filter(|&(_, behind, leg)| behind || leg)
