@@ -207,6 +207,8 @@ pub(crate) struct LegFit {
     pub thigh_measured: Option<f64>,
     /// Knee (at `FitInput::thigh_for_shank` from the hip) → ankle over the sole.
     pub shank_measured: Option<f64>,
+    /// The thigh's axis.
+    pub thigh: HeightLine,
 }
 
 /// Point on the line `p(h)` at 3-D distance `len` below `from` (the lower intersection of the
@@ -374,6 +376,7 @@ pub(crate) fn fit_leg(
         knee_gap_m: (thigh.at(knee_h_now) - shank.at(knee_h_now)).norm(),
         thigh_measured,
         shank_measured,
+        thigh,
     })
 }
 
@@ -410,4 +413,83 @@ pub(crate) fn place_foot(
     (n >= MIN_FOREFOOT_POINTS)
         .then(|| along.try_normalize(1e-9).map(|d| ankle + d * length))
         .flatten()
+}
+
+/// Height at which two thigh axes cross seen from the side, that is projected on the upright
+/// plane through `walking` (horizontal, camera space). Each thigh turns about its hip, and
+/// the hips sit side by side at nearly one height, so in a stride, one thigh forward and the
+/// other back, the axes cross at the hips' height: the hip joint centre as the pivot of the
+/// thigh's motion (the functional method, Cappozzo 1984). The pelvis turning by a few degrees
+/// puts the forward leg's hip a centimetre or two ahead, which moves the crossing by that over
+/// the opening. `None` unless the thighs open by at least `min_tan` (the difference of their
+/// slopes along `walking`, about the sum of the tangents of their angles off the vertical).
+pub(crate) fn thighs_cross_at(
+    a: &HeightLine,
+    b: &HeightLine,
+    frame: &FloorFrame,
+    walking: &Vector3<f64>,
+    min_tan: f64,
+) -> Option<f64> {
+    let forward = Vector2::new(frame.e1.dot(walking), frame.e2.dot(walking)).try_normalize(1e-6)?;
+    let opening = forward.dot(&(a.slope - b.slope));
+    if opening.abs() < min_tan {
+        return None;
+    }
+    // forward·(c_a + s_a (h − h_a)) = forward·(c_b + s_b (h − h_b))
+    let gap = forward.dot(&((b.c0 - b.slope * b.h0) - (a.c0 - a.slope * a.h0)));
+    Some(gap / opening)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A line through `at` (horizontal, height) with `slope` per metre of height.
+    fn line(at: (Vector2<f64>, f64), slope: Vector2<f64>) -> HeightLine {
+        HeightLine {
+            h0: at.1,
+            c0: at.0,
+            slope,
+            residual: 0.0,
+        }
+    }
+
+    #[test]
+    fn thighs_cross_at_the_hips_seen_from_the_side() {
+        let frame = FloorFrame::new(Vector3::new(0.0, 1.0, 0.0), 1.0);
+        // Walking along e1; the hips 0.18 m apart across it, both at 0.9 m; one thigh 25°
+        // forward, the other 15° back (the thigh goes down from the hip: forward of the hip
+        // below it means a negative slope along e1 with height).
+        let walking = frame.e1;
+        let hip_h = 0.9;
+        let fwd = line(
+            (Vector2::new(0.3, 0.09), hip_h),
+            Vector2::new(-(25f64.to_radians().tan()), 0.02),
+        );
+        let back = line(
+            (Vector2::new(0.3, -0.09), hip_h),
+            Vector2::new(15f64.to_radians().tan(), -0.02),
+        );
+        // Fitted over the thigh, not at the hip: move each line's reference point down it.
+        let moved = |l: HeightLine, h: f64| line((l.at(h), h), l.slope);
+        let (fwd, back) = (moved(fwd, 0.7), moved(back, 0.6));
+        let h = thighs_cross_at(&fwd, &back, &frame, &walking, 0.5).unwrap();
+        assert!((h - hip_h).abs() < 1e-9, "{h}");
+        // Seen along the walk instead of across it, the hips' line is in view: no crossing
+        // there, and the thighs hardly open.
+        assert!(thighs_cross_at(&fwd, &back, &frame, &frame.e2, 0.5).is_none());
+        // Thighs that barely open (standing) give none.
+        let still = line((Vector2::new(0.3, -0.09), 0.6), Vector2::new(-0.1, 0.0));
+        let still_b = line((Vector2::new(0.3, 0.09), 0.6), Vector2::new(0.1, 0.0));
+        assert!(thighs_cross_at(&still, &still_b, &frame, &walking, 0.5).is_none());
+        // A hip 2 cm ahead of the other, the thighs open by 0.73: the crossing moves by
+        // 2 cm / 0.73 = 2.7 cm (above the hips: the forward thigh starts further forward).
+        let ahead = line(
+            (Vector2::new(0.32, 0.09), hip_h),
+            Vector2::new(-(25f64.to_radians().tan()), 0.02),
+        );
+        let h = thighs_cross_at(&ahead, &back, &frame, &walking, 0.5).unwrap();
+        let opening = 25f64.to_radians().tan() + 15f64.to_radians().tan();
+        assert!((h - (hip_h + 0.02 / opening)).abs() < 1e-9, "{h}");
+    }
 }

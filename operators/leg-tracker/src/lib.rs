@@ -15,13 +15,16 @@
 //!    hidden), each of which goes whole to one leg.
 //! 3. **Legs.** The model is two chains hip → knee → ankle of straight segments; each point
 //!    below the hip goes to the leg whose predicted axis is nearer, so the legs keep their
-//!    identities when they cross ([`legs`] fits one leg, [`chains`] both of a frame). Hip
-//!    height is a share of the measured stature; the knee is the breakpoint of a two-line fit
+//!    identities when they cross ([`legs`] fits one leg, [`chains`] both of a frame). The hip
+//!    height is where the two thighs' axes cross, seen along the hips' line, while the person
+//!    walks (each thigh turns about its hip: the functional hip joint centre); a share of the
+//!    measured stature until enough crossings are in. The knee is the breakpoint of a two-line fit
 //!    to the limb's axis; the ankle sits above the sole of a foot standing on the floor (lowest
 //!    band at the floor, the ankle still; for a person standing still, kept down while the sole
 //!    stays) and hangs at the shank length otherwise. During the first frames the tracker
 //!    measures the stature and the thigh and shank lengths; then it holds them (too few
-//!    measured: halves of the standing leg from the stature) and places the knee and ankle at
+//!    measured: halves of the standing leg from the hip height; a hip height found later
+//!    lengthens or shortens the leg by its change) and places the knee and ankle at
 //!    those distances along the fitted lines, an ankle never below the floor. Where the lower
 //!    legs pass each other they may land on the wrong chains; the exchange that makes thigh and
 //!    shank lines meet at the knees is tried below the predicted knees and below the height
@@ -296,6 +299,8 @@ pub struct TrackedFrame {
     pub joints: Vec<TrackedJoint>,
     /// The stature in use, metres.
     pub stature_m: Option<f64>,
+    /// The hip joint centres' height over the floor in use, metres.
+    pub hip_height_m: Option<f64>,
     /// Thigh and shank lengths in use, metres.
     pub segment_lengths_m: Option<(f64, f64)>,
     /// Whether stature and lengths are held (learning is over).
@@ -315,6 +320,7 @@ impl TrackedFrame {
             person_mask: Vec::new(),
             joints: Vec::new(),
             stature_m: None,
+            hip_height_m: None,
             segment_lengths_m: None,
             lengths_held: false,
             floor,
@@ -363,6 +369,18 @@ pub enum Error {
 /// a swinging knee faster still), metres.
 const STILL_BODY_M: f64 = 0.01;
 
+/// Thigh-axis crossings that place the hip (about a second of walking at 30 Hz: the thighs
+/// are open enough near each heel strike, some 8 frames a second with both thighs seen).
+const MIN_HIP_CROSSINGS: usize = 15;
+/// Crossings taken at most, after which the hip height is held.
+const MAX_HIP_CROSSINGS: usize = 150;
+/// Thighs open by at least this (the sum of their tangents off the vertical, about 27°, when
+/// seen along the hips' line) cross at a well-defined height; in a stride they open 40–45°.
+const MIN_THIGH_OPENING: f64 = 0.5;
+/// The hip height found from the crossings stays within this share of the stature of the
+/// configured one (trochanteric height ranges over about 0.49–0.55 of the stature).
+const HIP_RATIO_SPAN: f64 = 0.05;
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -391,14 +409,22 @@ pub struct LegTracker {
     last_centroid: Option<Point3<f64>>,
     /// The walking direction (horizontal, camera space) while the person walks.
     forward: Option<Vector3<f64>>,
+    /// Whether the hips travelled as in a walk over the last [`PELVIS_HISTORY`] frames.
+    walking: bool,
     /// Each chain's hip over the last [`PELVIS_HISTORY`] frames, and whether its thigh was seen
     /// (a hidden leg's hip is carried or guessed, and its motion says nothing of the walk).
     pelvis_history: Vec<[(Point3<f64>, bool); 2]>,
     frames: usize,
     statures: Vec<f64>,
+    /// Thigh lengths measured, each less the hip height it was measured from: the thigh ends
+    /// at the hip, so a better hip height moves them all with it.
     thighs: Vec<f64>,
     shanks: Vec<f64>,
-    held: Option<(f64, (f64, f64))>,
+    /// Heights at which the thigh axes crossed while walking ([`legs::thighs_cross_at`]).
+    hip_crossings: Vec<f64>,
+    /// Once learned: the stature, and the length of each leg segment (thigh = shank) less half
+    /// the hip height (the leg from hip to ankle grows with the hip's height).
+    held: Option<(f64, f64)>,
 }
 
 fn median(v: &mut [f64]) -> Option<f64> {
@@ -450,11 +476,13 @@ impl LegTracker {
             left: None,
             last_centroid: None,
             forward: None,
+            walking: false,
             pelvis_history: Vec::new(),
             frames: 0,
             statures: Vec::new(),
             thighs: Vec::new(),
             shanks: Vec::new(),
+            hip_crossings: Vec::new(),
             held: None,
         })
     }
@@ -471,6 +499,7 @@ impl LegTracker {
         self.legs = None;
         self.last_centroid = None;
         self.forward = None;
+        self.walking = false;
         self.pelvis_history.clear();
     }
 
@@ -553,34 +582,29 @@ impl LegTracker {
             None => out.status = Status::NoStature,
         }
         out.stature_m = stature;
-        out.segment_lengths_m = self.held.map(|h| h.1).or_else(|| {
-            Some((
-                median(&mut self.thighs.clone())?,
-                median(&mut self.shanks.clone())?,
-            ))
-        });
+        out.hip_height_m = stature.map(|s| self.hip_height(s));
+        out.segment_lengths_m = out.hip_height_m.and_then(|hip_h| self.lengths(hip_h));
         if self.held.is_none()
             && self.frames >= self.config.learning_frames
             && self.thighs.len() >= 10
             && self.shanks.len() >= 10
-            && let (Some(s), Some(l)) = (stature, out.segment_lengths_m)
+            && let (Some(s), Some(hip_h), Some(l)) =
+                (stature, out.hip_height_m, out.segment_lengths_m)
         {
             // The breakpoint splits the leg with a bias that depends on the view (a limb seen
             // from the front shows its narrower side); the leg's total length does not. Thigh
             // and shank are equally long in adults (Winter 2009: 0.245 H and 0.246 H).
-            let half = 0.5 * (l.0 + l.1);
-            self.held = Some((s, (half, half)));
+            self.held = Some((s, 0.5 * (l.0 + l.1) - 0.5 * hip_h));
         } else if self.held.is_none()
             && self.frames >= self.config.learning_frames
             && let Some(s) = stature
         {
             // Too few lengths measured in the learning frames: a person standing still bends
             // no knee, and a shank is measured only over a foot on the floor (the OpenSim
-            // walk's sensors saw 3-4 in 2 s). Hold the standing leg's halves from the stature
-            // (thigh = shank, as above): unheld, a straight leg's knee would sit at whichever
-            // breakpoint fitted best, and any does.
-            let half = 0.5 * (self.config.hip_height_ratio - self.config.ankle_height_ratio) * s;
-            self.held = Some((s, (half, half)));
+            // walk's sensors saw 3-4 in 2 s). Hold the standing leg's halves from the hip
+            // height (thigh = shank, as above): unheld, a straight leg's knee would sit at
+            // whichever breakpoint fitted best, and any does.
+            self.held = Some((s, -0.5 * self.config.ankle_height_ratio * s));
         }
         out.lengths_held = self.held.is_some();
         out.person_mask = mask;
@@ -598,7 +622,7 @@ impl LegTracker {
         out: &mut TrackedFrame,
     ) {
         let ff = FloorFrame::new(floor.up_in_kinect, floor.camera_height_m);
-        let hip_h = self.config.hip_height_ratio * stature;
+        let hip_h = self.hip_height(stature);
         let points = LegPoints::gather(cloud, piece, &ff, hip_h);
         if points.pts.len() < 50 {
             return self.coast(out);
@@ -649,7 +673,7 @@ impl LegTracker {
         }
         fitter.resplit_lost_chain(&points, share, &mut split, &mut fits);
         fitter.resplit_merged_chains(&points, share, &mut split, &mut fits);
-        self.learn_lengths(&fits);
+        self.learn_lengths(&fits, hip_h);
         self.carry_unseen_hips(&mut fits.fit);
         let Some(tracks) = self.update_tracks(&fits) else {
             self.legs = None;
@@ -662,6 +686,7 @@ impl LegTracker {
             self.pelvis_history.remove(0);
         }
         self.decide_sides(&ff, &tracks, &fits.fit);
+        self.learn_hip_height(&ff, &fits.fit);
         self.emit(&ff, &tracks, &fits.fit, &split.1, stature, out);
         self.legs = Some(tracks);
     }
@@ -669,36 +694,80 @@ impl LegTracker {
     /// What fitting a leg needs of the tracker: the hip height, the ankle over the sole, and
     /// the segment lengths, held or, while learning, as measured so far once there are a few.
     fn fit_input(&self, hip_h: f64, stature: f64) -> FitInput {
-        let thigh_median = if self.thighs.len() >= 3 {
-            median(&mut self.thighs.clone())
-        } else {
-            None
-        };
         FitInput {
             hip_h,
             ankle_above_sole_m: self.config.ankle_height_ratio * stature,
-            lengths: self.held.map(|h| h.1).or_else(|| {
-                if self.thighs.len() < 5 || self.shanks.len() < 5 {
-                    return None;
-                }
-                let half = 0.5 * (thigh_median? + median(&mut self.shanks.clone())?);
-                Some((half, half))
-            }),
-            thigh_for_shank: thigh_median,
+            // While learning, halves of the leg measured so far (thigh = shank, as held).
+            lengths: self
+                .lengths(hip_h)
+                .filter(|_| {
+                    self.held.is_some() || (self.thighs.len() >= 5 && self.shanks.len() >= 5)
+                })
+                .map(|(t, s)| (0.5 * (t + s), 0.5 * (t + s))),
+            thigh_for_shank: (self.thighs.len() >= 3)
+                .then(|| median(&mut self.thighs.clone()).map(|t| t + hip_h))
+                .flatten(),
             min_band_points: self.config.min_band_points as f64,
+        }
+    }
+
+    /// The segment lengths (thigh, shank) for a hip at `hip_h`: held, or while learning the
+    /// medians measured so far (thigh and shank apart), once there are any.
+    fn lengths(&self, hip_h: f64) -> Option<(f64, f64)> {
+        if let Some((_, half_less)) = self.held {
+            let half = half_less + 0.5 * hip_h;
+            return Some((half, half));
+        }
+        Some((
+            median(&mut self.thighs.clone())? + hip_h,
+            median(&mut self.shanks.clone())?,
+        ))
+    }
+
+    /// The hip joint centre's height over the floor: where the thighs' axes cross while the
+    /// person walks (the median of up to [`MAX_HIP_CROSSINGS`], once there are
+    /// [`MIN_HIP_CROSSINGS`]), within [`HIP_RATIO_SPAN`] of the stature of the configured
+    /// share; until then, that share of the stature. People's proportions differ: the
+    /// share is 0.52 on average (Winter 2009), but a 3 % longer trunk lowers the hip of a
+    /// 1.7 m person by 5 cm.
+    fn hip_height(&self, stature: f64) -> f64 {
+        let prior = self.config.hip_height_ratio * stature;
+        if self.hip_crossings.len() < MIN_HIP_CROSSINGS {
+            return prior;
+        }
+        let span = HIP_RATIO_SPAN * stature;
+        median(&mut self.hip_crossings.clone())
+            .map_or(prior, |h| h.clamp(prior - span, prior + span))
+    }
+
+    /// Takes the height at which this frame's thigh axes cross, when both thighs were seen,
+    /// the person walks (a standing person's thighs are still and may be apart for any
+    /// reason) and the thighs are open by at least [`MIN_THIGH_OPENING`].
+    fn learn_hip_height(&mut self, ff: &FloorFrame, fits: &[Option<LegFit>; 2]) {
+        let share = self.config.tracked_share;
+        if self.hip_crossings.len() < MAX_HIP_CROSSINGS
+            && let [Some(a), Some(b)] = fits
+            && a.thigh_seen >= share
+            && b.thigh_seen >= share
+            && self.walking
+            && let Some(walking) = self.forward
+            && let Some(h) =
+                legs::thighs_cross_at(&a.thigh, &b.thigh, ff, &walking, MIN_THIGH_OPENING)
+        {
+            self.hip_crossings.push(h);
         }
     }
 
     /// While the lengths are not yet held: the thighs measured this frame, and the shanks over
     /// a foot on the floor (a hung ankle says nothing of the shank's length).
-    fn learn_lengths(&mut self, fits: &ChainFits) {
+    fn learn_lengths(&mut self, fits: &ChainFits, hip_h: f64) {
         if self.held.is_some() {
             return;
         }
         for (f, on_floor) in fits.fit.iter().zip(fits.on_floor) {
             let Some(f) = f else { continue };
             if let Some(lt) = f.thigh_measured.filter(|l| (0.2..0.7).contains(l)) {
-                self.thighs.push(lt);
+                self.thighs.push(lt - hip_h);
             }
             if let Some(ls) = f
                 .shank_measured
@@ -917,6 +986,7 @@ impl LegTracker {
         // The travel when it is a walk rather than sway.
         let walk = travel.filter(|v| horizontal(v).norm() > MIN_WALK_M);
         let by_motion = walk.is_some();
+        self.walking = by_motion;
         // The feet decide only for someone standing (seen still over the whole window) or on
         // the very first frame (a single recorded image); a person found again waits for the
         // window, as the feet of someone close to the sensor are often out of view, and a
