@@ -381,6 +381,13 @@ const MIN_THIGH_OPENING: f64 = 0.5;
 /// configured one (trochanteric height ranges over about 0.49–0.55 of the stature).
 const HIP_RATIO_SPAN: f64 = 0.05;
 
+/// The leg (thigh + shank) held is at most this much longer than the hip height over the
+/// ankle's, metres: walking, the knees never straighten fully and the pelvis rides a few
+/// centimetres below its standing height, where the leg's length is the hip's height over the
+/// ankle. Measured through the breakpoint, seen from the front, the leg came out up to 6 cm
+/// longer, and ankles hung from it sat 2–3 cm low.
+const LEG_SLACK_M: f64 = 0.04;
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -594,7 +601,10 @@ impl LegTracker {
             // The breakpoint splits the leg with a bias that depends on the view (a limb seen
             // from the front shows its narrower side); the leg's total length does not. Thigh
             // and shank are equally long in adults (Winter 2009: 0.245 H and 0.246 H).
-            self.held = Some((s, 0.5 * (l.0 + l.1) - 0.5 * hip_h));
+            // At most [`LEG_SLACK_M`] longer than the hip stands over the ankle.
+            let straight = -0.5 * self.config.ankle_height_ratio * s;
+            let measured = 0.5 * (l.0 + l.1) - 0.5 * hip_h;
+            self.held = Some((s, measured.min(straight + 0.5 * LEG_SLACK_M)));
         } else if self.held.is_none()
             && self.frames >= self.config.learning_frames
             && let Some(s) = stature

@@ -238,8 +238,8 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score>
 /// Simulated depth of the walker on the thesis rig for 10 s at 30 Hz: for every sensor the
 /// tracked hips, knees and ankles are within 4 cm (median per joint class) of the rendered
 /// joint centres, and the left and right legs are never swapped (outside the 0.35 s after the
-/// simulated lap's instantaneous turn). Measured: medians 2.0–3.8 cm (hip / knee / ankle k1
-/// 2.8 / 2.0 / 2.2, k2 2.8 / 2.4 / 2.7, k3 3.4 / 2.3 / 3.8 cm); on this noise seed one swapped
+/// simulated lap's instantaneous turn). Measured: medians 2.0–3.4 cm (hip / knee / ankle k1
+/// 2.8 / 2.0 / 2.2, k2 2.9 / 2.2 / 2.5, k3 3.4 / 2.2 / 2.8 cm); on this noise seed one swapped
 /// frame, k2 at 0.90 s, where the far leg passes behind the near one (the test pins at most
 /// one per sensor; swaps over other seeds: [`swapped_frames_over_noise_seeds`]). The hip height
 /// found from the walk is within 1.1 cm of the rendered one ([`HIP_HEIGHT_M`]); the feet are
