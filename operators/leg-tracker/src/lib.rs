@@ -584,12 +584,15 @@ impl LegTracker {
             Some((s, _)) => Some(s),
             None => median(&mut self.statures.clone()),
         };
-        match stature {
-            Some(stature) => self.fit_legs(&cloud, &piece, &floor, stature, &mut out),
-            None => out.status = Status::NoStature,
+        // This frame's hip height, before the frame adds a crossing.
+        out.hip_height_m = stature.map(|s| self.hip_height(s));
+        match (stature, out.hip_height_m) {
+            (Some(stature), Some(hip_h)) => {
+                self.fit_legs(&cloud, &piece, &floor, stature, hip_h, &mut out);
+            }
+            _ => out.status = Status::NoStature,
         }
         out.stature_m = stature;
-        out.hip_height_m = stature.map(|s| self.hip_height(s));
         out.segment_lengths_m = out.hip_height_m.and_then(|hip_h| self.lengths(hip_h));
         if self.held.is_none()
             && self.frames >= self.config.learning_frames
@@ -621,18 +624,18 @@ impl LegTracker {
         out
     }
 
-    /// Fits the two leg chains to the person's points below the hips and updates the tracks,
-    /// the sides and the frame's joints.
+    /// Fits the two leg chains to the person's points below the hips at `hip_h` and updates the
+    /// tracks, the sides and the frame's joints.
     fn fit_legs(
         &mut self,
         cloud: &segment::Cloud,
         piece: &[u8],
         floor: &Floor,
         stature: f64,
+        hip_h: f64,
         out: &mut TrackedFrame,
     ) {
         let ff = FloorFrame::new(floor.up_in_kinect, floor.camera_height_m);
-        let hip_h = self.hip_height(stature);
         let points = LegPoints::gather(cloud, piece, &ff, hip_h);
         if points.pts.len() < 50 {
             return self.coast(out);
