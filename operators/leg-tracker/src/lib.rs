@@ -763,9 +763,9 @@ impl LegTracker {
             && a.thigh_seen >= share
             && b.thigh_seen >= share
             && self.walking
-            && let Some(walking) = self.forward
+            && let Some(forward) = self.forward
             && let Some(h) =
-                legs::thighs_cross_at(&a.thigh, &b.thigh, ff, &walking, MIN_THIGH_OPENING)
+                legs::thighs_cross_at(&a.thigh, &b.thigh, ff, &forward, MIN_THIGH_OPENING)
         {
             self.hip_crossings.push(h);
         }

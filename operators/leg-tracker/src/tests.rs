@@ -104,8 +104,8 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score>
         // The same split by the reported state, and the signed height error of each class.
         let mut by_state: [[Vec<f64>; 3]; 2] = Default::default();
         let mut height_err: [Vec<f64>; 3] = Default::default();
-        let up = pose.rotation.inverse() * nalgebra::Vector3::z();
         let floor = Floor::from_pose(&pose).unwrap();
+        let up = floor.up_in_kinect;
         let (mut found_hip_h, mut hip_h) = (f64::NAN, Vec::new());
         let (mut swaps, mut reported, mut tracked, mut present) = (0, 0, 0, 0);
         let (mut foot_err, mut foot_height) = (Vec::new(), Vec::new());
