@@ -32,9 +32,15 @@ const FOOT_REGION_M: f64 = 0.35;
 /// Predicted leg axes nearer than this at some height below the knees cross there, metres.
 const CROSSING_M: f64 = 0.08;
 
-/// Lower legs whose point centres lie farther apart than this are two legs, metres (one leg's
-/// points split in two lie about a leg's width apart).
-const TWO_LEGS_M: f64 = 0.2;
+/// Lower legs whose point centres lie farther apart than this may be two legs, metres: one
+/// leg's points split in two lie up to about a leg's width apart, and a far leg coming out
+/// from behind the near one, seen from the side, shows its lower leg 0.16 m from the other's.
+/// A split is kept only when its hips lie [`HIPS_APART_M`] apart as well.
+const TWO_LEGS_M: f64 = 0.15;
+
+/// Legs split afresh whose hips lie nearer than this are one leg cut in two, metres (the hip
+/// joint centres lie about 0.18 m apart).
+const HIPS_APART_M: f64 = 0.1;
 
 /// Frames a chain may go without a fit before the legs are split afresh (0.1 s at 30 Hz): a
 /// leg that passes behind the other for a frame or two coasts through rather than being split
@@ -265,9 +271,10 @@ impl ChainFitter<'_> {
     /// A chain that has had no fit for a few frames while two legs stand apart has lost its
     /// leg: its prediction went off the body (after a sharp turn, both legs fell to the other
     /// chain) and it would coast, wrong, until it is dropped. Splits the legs afresh, as at the
-    /// start, and keeps the split when it shows two thighs (at least `share` of each): the
-    /// fitted chain takes the leg nearer its fit, the lost chain the other. A leg hidden behind
-    /// the other shows no second thigh, so it keeps coasting with the pelvis.
+    /// start, and keeps the split when it shows two thighs (at least `share` of each) whose
+    /// hips lie apart as two hips do: the fitted chain takes the leg nearer its fit, the lost
+    /// chain the other. A leg hidden behind the other shows no second thigh, so it keeps
+    /// coasting with the pelvis.
     pub fn resplit_lost_chain(
         &self,
         points: &LegPoints,
@@ -295,6 +302,7 @@ impl ChainFitter<'_> {
             if let [Some(a), Some(b)] = &alt.fit
                 && a.thigh_seen >= share
                 && b.thigh_seen >= share
+                && (a.pose.hip - b.pose.hip).norm() >= HIPS_APART_M
             {
                 // The new fits come as (a, b); `a` goes to the kept chain if its hip is the
                 // nearer one, else to the lost chain.

@@ -220,3 +220,73 @@ fn where_ankle_and_foot_errors_come_from() {
         }
     }
 }
+
+/// Frame by frame, how far each chain's hip, knee and ankle lie from the left and the right
+/// truth, the frames the chain has coasted, the sides and whether the frame came out swapped:
+/// where a swap comes from. Chosen by `TRACE_CLIP` (`walker` or a shared mocap file),
+/// `TRACE_SENSOR` (index in the thesis rig), `TRACE_SEED`, `TRACE_FROM` and `TRACE_TO`
+/// (seconds), and `TRACE_LANES` (set: the two-lane lap); run by hand:
+/// `TRACE_SENSOR=1 TRACE_FROM=0.7 TRACE_TO=1.1 cargo test --release -p trigait-leg-tracker --lib -- --ignored trace_frames --nocapture`.
+#[test]
+#[ignore = "diagnostic, prints a trace"]
+fn trace_frames() {
+    let which = std::env::var("TRACE_CLIP").unwrap_or_else(|_| "walker".into());
+    let k: usize = std::env::var("TRACE_SENSOR").map_or(1, |s| s.parse().unwrap());
+    let seed: u64 = std::env::var("TRACE_SEED").map_or(7, |s| s.parse().unwrap());
+    let from: f64 = std::env::var("TRACE_FROM").map_or(0.7, |s| s.parse().unwrap());
+    let to: f64 = std::env::var("TRACE_TO").map_or(1.1, |s| s.parse().unwrap());
+    let clip = if which == "walker" {
+        walker(&WalkerParams::default(), 3.0, 100.0).unwrap()
+    } else {
+        let path = trigait_test_data::shared_file(&which).unwrap();
+        trigait_motion::load_motion(&path).unwrap()
+    };
+    let lap = if std::env::var("TRACE_LANES").is_ok() {
+        trigait_motion::walkway_loop(&clip.placed_on_walkway(), 1.0, 1.0).unwrap()
+    } else {
+        there_and_back(&clip.placed_on_walkway()).unwrap()
+    };
+    let rig = Rig::builtin("thesis").unwrap();
+    let pose = rig.sensors[k].world_from_kinect;
+    let mut renderer = super::tests::seeded_renderer(&pose, seed);
+    let mut tracker = LegTracker::new(super::tests::config_for(&pose)).unwrap();
+    for f in 0..((to * 30.0) as usize + 1) {
+        let t = f as f64 / 30.0;
+        let tl = t % lap.duration_secs();
+        let r = renderer
+            .render_pose(&BodyShape::default(), |j| lap.position_at(j, tl))
+            .unwrap_or_else(|_| renderer.render_bodies(&[], Vec::new()));
+        let out = tracker.track(&r.depth);
+        if t < from || r.joints_in_kinect.is_empty() {
+            continue;
+        }
+        let g = |j| r.joint(j).unwrap();
+        let left = tracker.left;
+        print!("{t:.3} left {left:?} walk {} ", tracker.walking);
+        if let Some(legs) = &tracker.legs {
+            for (c, tr) in legs.iter().enumerate() {
+                let p = tr.pose;
+                print!(
+                    "| c{c} m{} hip L{:.2}/R{:.2} knee L{:.2}/R{:.2} ank L{:.2}/R{:.2} ",
+                    tr.missed,
+                    (p.hip - g(Joint::HipLeft)).norm(),
+                    (p.hip - g(Joint::HipRight)).norm(),
+                    (p.knee - g(Joint::KneeLeft)).norm(),
+                    (p.knee - g(Joint::KneeRight)).norm(),
+                    (p.ankle - g(Joint::AnkleLeft)).norm(),
+                    (p.ankle - g(Joint::AnkleRight)).norm(),
+                );
+            }
+        }
+        let conf: Vec<String> = out
+            .joints
+            .iter()
+            .map(|j| format!("{:.1}", j.confidence))
+            .collect();
+        println!(
+            "| swapped {:?} conf {}",
+            super::tests::sides_swapped(&out, &r),
+            conf.join(",")
+        );
+    }
+}

@@ -239,9 +239,8 @@ fn score_on_the_thesis_rig(lap: &MotionClip, secs: f64, seed: u64) -> Vec<Score>
 /// tracked hips, knees and ankles are within 4 cm (median per joint class) of the rendered
 /// joint centres, and the left and right legs are never swapped (outside the 0.35 s after the
 /// simulated lap's instantaneous turn). Measured: medians 2.0–3.4 cm (hip / knee / ankle k1
-/// 2.8 / 2.0 / 2.2, k2 2.9 / 2.2 / 2.5, k3 3.4 / 2.2 / 2.8 cm); on this noise seed one swapped
-/// frame, k2 at 0.90 s, where the far leg passes behind the near one (the test pins at most
-/// one per sensor; swaps over other seeds: [`swapped_frames_over_noise_seeds`]). The hip height
+/// 2.8 / 2.0 / 2.2, k2 2.9 / 2.2 / 2.5, k3 3.4 / 2.2 / 2.8 cm); no swapped frame on this noise
+/// seed (swaps over other seeds: [`swapped_frames_over_noise_seeds`]). The hip height
 /// found from the walk is within 1.1 cm of the rendered one ([`HIP_HEIGHT_M`]); the feet are
 /// pinned to their measured state (see [`FOOT_MEDIAN_M`]).
 #[test]
@@ -256,7 +255,7 @@ fn walker_on_the_thesis_rig() {
                 failures.push(format!("{}: median {what} error {m:.3} m", s.sensor));
             }
         }
-        if s.swaps > 1 {
+        if s.swaps > 0 {
             failures.push(format!(
                 "{}: left/right swapped in {} frames",
                 s.sensor, s.swaps
@@ -1110,7 +1109,10 @@ fn still_poses_over_the_lap() {
 /// were reported. A swap exchanges the legs' identities: at least two of the hip, knee and
 /// ankle pairs lie nearer the other side's truth (one misplaced joint is a fit error, not a
 /// swap).
-fn sides_swapped(out: &TrackedFrame, truth: &trigait_body_render::Rendered) -> Option<bool> {
+pub(super) fn sides_swapped(
+    out: &TrackedFrame,
+    truth: &trigait_body_render::Rendered,
+) -> Option<bool> {
     let mut crossed = 0;
     for (left, right) in [
         (Joint::HipLeft, Joint::HipRight),
