@@ -50,8 +50,8 @@ pub struct Counters {
     pub wrong_sensor: u64,
     /// Frames that are not 512×424 (skipped).
     pub wrong_size: u64,
-    /// Frames sent, by the tracker's outcome (`no_data`, `no_floor`, `nobody`, `tracking`,
-    /// `no_stature`).
+    /// Frames sent, by the tracker's outcome (`no_data`, `no_floor`, `nobody`, `too_close`,
+    /// `tracking`, `no_stature`).
     pub by_status: BTreeMap<&'static str, u64>,
     /// Joints sent tracked.
     pub joints_tracked: u64,
@@ -92,6 +92,7 @@ pub fn status_name(status: Status) -> &'static str {
         Status::Nobody => "nobody",
         Status::Tracking => "tracking",
         Status::NoStature => "no_stature",
+        Status::TooClose => "too_close",
     }
 }
 

@@ -264,6 +264,11 @@ pub enum Status {
     /// A person was segmented, but their stature is not known: the head has not been seen in
     /// view yet (someone close to the sensor), and the legs are sized from it.
     NoStature,
+    /// No person's feet are in view, but something of a person's size is cut off by the
+    /// image's lower edge, its lowest point above where feet are: someone too close to the
+    /// sensor for their legs to be seen (a Kinect v2 a metre up sees the floor only from
+    /// about 1.7 m out).
+    TooClose,
 }
 
 /// One joint of the output.
@@ -546,7 +551,12 @@ impl LegTracker {
         };
         let Some(person) = chosen.copied().cloned() else {
             self.lose();
-            let mut out = TrackedFrame::empty(Status::Nobody, cloud.valid, Some(floor));
+            let status = if people.is_empty() && segment::too_close(&labels, &comps, &params) {
+                Status::TooClose
+            } else {
+                Status::Nobody
+            };
+            let mut out = TrackedFrame::empty(status, cloud.valid, Some(floor));
             out.people = people.len();
             return out;
         };

@@ -285,6 +285,34 @@ impl Component {
     }
 }
 
+/// Something cut off by the image's lower edge shows at least this much of its height when it
+/// is a body too close to the sensor, metres (a tabletop or a shelf shows less).
+const TOO_CLOSE_SPAN_M: f64 = 0.3;
+
+/// The image's lower edge, in rows: a component with pixels there is cut off by it (the sensor
+/// drops pixels along the image's edges, so a body cut off there may not reach the last row).
+const LOWER_EDGE_ROWS: usize = 8;
+
+/// Whether one of `comps` (none of them person-like) is a body too close to the sensor: of a
+/// person's size, cut off by the image's lower edge, with its lowest point above where feet
+/// are (the legs go on below the image) and at least [`TOO_CLOSE_SPAN_M`] of its height in
+/// view.
+pub(crate) fn too_close(
+    labels: &[u32],
+    comps: &[Component],
+    params: &crate::SegmentParams,
+) -> bool {
+    let lower_edge = &labels[(HEIGHT - LOWER_EDGE_ROWS) * WIDTH..];
+    comps.iter().any(|c| {
+        let (lo, hi) = c.height_range_m;
+        lo >= params.max_foot_height_m
+            && hi - lo >= TOO_CLOSE_SPAN_M
+            && c.radius_m < params.max_person_radius_m
+            && (params.min_person_area_m2..params.max_person_area_m2).contains(&c.area_m2)
+            && lower_edge.contains(&c.label)
+    })
+}
+
 /// A cut-off limb stays below this share of the person's top height (the knee is at 0.285 H,
 /// Winter 2009; a piece may hold the lower thigh too).
 const LIMB_TOP_SHARE: f64 = 0.45;
