@@ -26,6 +26,9 @@ const STILL_SOLE_M: f64 = 0.03;
 /// exchanged lower legs must join up to be taken.
 const SWAP_MARGIN_M: f64 = 0.04;
 
+/// Hips nearer than this across the walk do not tell the legs' sides, metres.
+const SIDES_APART_M: f64 = 0.08;
+
 /// Points lower than this may be a foot (a swinging ankle stays below 0.3 m), metres.
 const FOOT_REGION_M: f64 = 0.35;
 
@@ -152,9 +155,30 @@ pub(crate) struct ChainFitter<'a> {
     /// The floor cut (points lower than this are floor): a foot whose lowest band lies within
     /// a band above it may stand on the floor, metres.
     pub floor_tolerance_m: f64,
+    /// Across the walking direction (up × forward), while the person walks.
+    pub lateral: Option<Vector3<f64>>,
 }
 
 impl ChainFitter<'_> {
+    /// How far the knees and ankles of `fits` lie on the wrong side of each other, across the
+    /// walk, against the side the hips give: walking legs keep to their sides (the ankles
+    /// 5-15 cm apart across the walk), so lower legs given to the wrong chains cross over,
+    /// metres (0 when walking is not known, for legs on their sides, or hips too near to tell).
+    fn crossed_over(&self, fits: &ChainFits) -> f64 {
+        let (Some(lat), [Some(a), Some(b)]) = (self.lateral, &fits.fit) else {
+            return 0.0;
+        };
+        let hips = lat.dot(&(a.pose.hip - b.pose.hip));
+        if hips.abs() < SIDES_APART_M {
+            return 0.0;
+        }
+        let side = hips.signum();
+        [a.pose.knee - b.pose.knee, a.pose.ankle - b.pose.ankle]
+            .iter()
+            .map(|d| (-side * lat.dot(d)).max(0.0))
+            .sum()
+    }
+
     /// Each chain fitted to its bands.
     pub fn fit(&self, bands: &[Vec<Band>; 2]) -> ChainFits {
         let ff = self.ff;
@@ -243,17 +267,18 @@ impl ChainFitter<'_> {
         {
             splits.push(cross.0);
         }
-        let mut best_gap = a.knee_gap_m + b.knee_gap_m - SWAP_MARGIN_M;
+        let mut best_gap = a.knee_gap_m + b.knee_gap_m + self.crossed_over(fits) - SWAP_MARGIN_M;
         let mut taken = None;
         for split in splits {
             let mut swapped = bands.clone();
             let (lo0, lo1) = swapped.split_at_mut(1);
             lo0[0][..split].swap_with_slice(&mut lo1[0][..split]);
             let alt = self.fit(&swapped);
+            let crossed = self.crossed_over(&alt);
             if let [Some(c), Some(d)] = &alt.fit
-                && c.knee_gap_m + d.knee_gap_m < best_gap
+                && c.knee_gap_m + d.knee_gap_m + crossed < best_gap
             {
-                best_gap = c.knee_gap_m + d.knee_gap_m;
+                best_gap = c.knee_gap_m + d.knee_gap_m + crossed;
                 taken = Some((split, alt));
             }
         }

@@ -278,6 +278,20 @@ fn trace_frames() {
                 );
             }
         }
+        if let (Some(fwd), Some(legs)) = (tracker.forward, &tracker.legs) {
+            let up = tracker.floor.unwrap().up_in_kinect;
+            let lat = up.cross(&fwd);
+            let (a, b) = (legs[0].pose, legs[1].pose);
+            print!(
+                "| lat c0-c1 {:+.2}/{:+.2}/{:+.2} L-R {:+.2}/{:+.2}/{:+.2} ",
+                lat.dot(&(a.hip - b.hip)),
+                lat.dot(&(a.knee - b.knee)),
+                lat.dot(&(a.ankle - b.ankle)),
+                lat.dot(&(g(Joint::HipLeft) - g(Joint::HipRight))),
+                lat.dot(&(g(Joint::KneeLeft) - g(Joint::KneeRight))),
+                lat.dot(&(g(Joint::AnkleLeft) - g(Joint::AnkleRight))),
+            );
+        }
         let conf: Vec<String> = out
             .joints
             .iter()

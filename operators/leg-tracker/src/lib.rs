@@ -685,6 +685,10 @@ impl LegTracker {
                 })
             }),
             floor_tolerance_m: self.config.segment.floor_tolerance_m,
+            lateral: self
+                .forward
+                .filter(|_| self.walking)
+                .map(|f| ff.up.cross(&f)),
         };
         let mut fits = fitter.fit(&split.0);
         if let Some(pred) = &predicted {
