@@ -266,8 +266,8 @@ pub enum Status {
     NoStature,
     /// No person's feet are in view, but something of a person's size is cut off by the
     /// image's lower edge, its lowest point above where feet are: someone too close to the
-    /// sensor for their legs to be seen (a Kinect v2 a metre up sees the floor only from
-    /// about 1.7 m out).
+    /// sensor for their legs to be seen (a Kinect v2 a metre up, looking level, sees the floor
+    /// only from about 1.7 m out).
     TooClose,
 }
 
