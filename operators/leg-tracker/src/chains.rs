@@ -155,7 +155,9 @@ pub(crate) struct ChainFitter<'a> {
     /// The floor cut (points lower than this are floor): a foot whose lowest band lies within
     /// a band above it may stand on the floor, metres.
     pub floor_tolerance_m: f64,
-    /// Across the walking direction (up × forward), while the person walks.
+    /// Across the walk: up × the walking direction while the person walks; in the first
+    /// frames after the person is found, before a walk could be told, the horizontal line
+    /// through the two hips if both were seen.
     pub lateral: Option<Vector3<f64>>,
 }
 
@@ -163,7 +165,8 @@ impl ChainFitter<'_> {
     /// How far the knees and ankles of `fits` lie on the wrong side of each other, across the
     /// walk, against the side the hips give: walking legs keep to their sides (the ankles
     /// 5-15 cm apart across the walk), so lower legs given to the wrong chains cross over,
-    /// metres (0 when walking is not known, for legs on their sides, or hips too near to tell).
+    /// metres (0 with no line across the walk, for legs on their sides, or hips too near to
+    /// tell).
     fn crossed_over(&self, fits: &ChainFits) -> f64 {
         let (Some(lat), [Some(a), Some(b)]) = (self.lateral, &fits.fit) else {
             return 0.0;

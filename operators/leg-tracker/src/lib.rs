@@ -685,10 +685,23 @@ impl LegTracker {
                 })
             }),
             floor_tolerance_m: self.config.segment.floor_tolerance_m,
+            // Before a walk could be told, the seen hips' line; later, a standing person's
+            // half-seen hips (a frozen stride) gave a poor one and swapped more still frames.
             lateral: self
                 .forward
                 .filter(|_| self.walking)
-                .map(|f| ff.up.cross(&f)),
+                .map(|f| ff.up.cross(&f))
+                .or_else(|| {
+                    if self.pelvis_history.len() >= PELVIS_HISTORY {
+                        return None;
+                    }
+                    let l = self.legs.as_ref()?;
+                    if !self.pelvis_history.last().is_some_and(|[a, b]| a.1 && b.1) {
+                        return None;
+                    }
+                    let d = l[0].pose.hip - l[1].pose.hip;
+                    (d - ff.up * ff.up.dot(&d)).try_normalize(1e-6)
+                }),
         };
         let mut fits = fitter.fit(&split.0);
         if let Some(pred) = &predicted {
