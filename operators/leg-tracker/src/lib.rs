@@ -696,7 +696,7 @@ impl LegTracker {
                         return None;
                     }
                     let l = self.legs.as_ref()?;
-                    if !self.pelvis_history.last().is_some_and(|[a, b]| a.1 && b.1) {
+                    if !self.both_hips_seen_last() {
                         return None;
                     }
                     let d = l[0].pose.hip - l[1].pose.hip;
@@ -729,6 +729,12 @@ impl LegTracker {
         self.learn_hip_height(&ff, &fits.fit);
         self.emit(&ff, &tracks, &fits.fit, &split.1, stature, out);
         self.legs = Some(tracks);
+    }
+
+    /// Whether both thighs were seen in the last frame, so both hips were fitted rather than
+    /// carried or guessed.
+    fn both_hips_seen_last(&self) -> bool {
+        self.pelvis_history.last().is_some_and(|[a, b]| a.1 && b.1)
     }
 
     /// What fitting a leg needs of the tracker: the hip height, the ankle over the sole, and
@@ -1057,7 +1063,7 @@ impl LegTracker {
         }
         // Which hip lies on which side is read only off two hips seen now: a hidden leg's hip
         // is carried along or guessed, and may lie anywhere.
-        if !self.pelvis_history.last().is_some_and(|[a, b]| a.1 && b.1) {
+        if !self.both_hips_seen_last() {
             return;
         }
         // Walking, the hips say it (the pelvis is rigid; knees and ankles swing past each
