@@ -18,6 +18,7 @@ use trigait_motion::{WalkerParams, there_and_back, walker};
 use trigait_rig::Rig;
 use trigait_skeleton::{Joint, MotionClip, TrackingState};
 
+use super::tests::Turns;
 use super::*;
 
 #[derive(Default)]
@@ -57,7 +58,7 @@ fn visible(labels: &[u8], parts: &[Part]) -> usize {
 
 fn run(
     lap: &MotionClip,
-    spins: bool,
+    turns: Turns,
     secs: f64,
     table: &mut BTreeMap<String, [BTreeMap<&'static str, Class>; 2]>,
 ) {
@@ -147,7 +148,7 @@ fn run(
                 let other_out = out.joint(sides[1 - s].0).map(|o| o.position_in_kinect);
                 let both_same = other_out.is_some_and(|o| (o - a.position_in_kinect).norm() < 0.06);
                 let half = lap.duration_secs() / 2.0;
-                let class = if spins && (t % half) < 0.35 {
+                let class = if turns == Turns::Spun && (t % half) < 0.35 {
                     "0 after the lap's instant turn"
                 } else if e_other + 0.03 < e.norm() && e.norm() > 0.08 && both_same {
                     "a1 wrong leg, same"
@@ -214,7 +215,12 @@ fn where_ankle_and_foot_errors_come_from() {
         .collect();
     let mut table = BTreeMap::new();
     for c in &clips {
-        run(c, !lanes, 10.0, &mut table);
+        run(
+            c,
+            if lanes { Turns::Unseen } else { Turns::Spun },
+            10.0,
+            &mut table,
+        );
     }
     for (key, [ankle, foot]) in &table {
         for (what, t) in [("ankle", ankle), ("foot", foot)] {

@@ -88,7 +88,7 @@ struct Score {
 
 /// How a lap turns at the walkway's ends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Turns {
+pub(super) enum Turns {
     /// There and back on one line: the walker spins 180° within one sample, and the 0.35 s
     /// after each spin are left out of the swap count ([`near_turn`]).
     Spun,
