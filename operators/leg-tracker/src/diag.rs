@@ -14,11 +14,10 @@ use std::collections::BTreeMap;
 
 use nalgebra::{Point3, Vector3};
 use trigait_body_render::{Body, BodyShape, Part, RenderParams, Renderer, Room};
-use trigait_motion::{WalkerParams, there_and_back, walker};
 use trigait_rig::Rig;
 use trigait_skeleton::{Joint, MotionClip, TrackingState};
 
-use super::tests::Turns;
+use super::tests::{Turns, all_laps, walk};
 use super::*;
 
 #[derive(Default)]
@@ -191,36 +190,17 @@ fn run(
 #[test]
 #[ignore = "diagnostic, prints a table"]
 fn where_ankle_and_foot_errors_come_from() {
-    let mut clips = vec![walker(&WalkerParams::default(), 3.0, 100.0).unwrap()];
-    for file in [
-        "mocap-cmu-07_01/07_01.c3d",
-        "mocap-opensim-rajagopal-walk/Rajagopal__motion_capture_walk.trc",
-    ] {
-        if let Some(path) = trigait_test_data::shared_file(file) {
-            let clip = trigait_motion::load_motion(&path).unwrap();
-            clips.push(clip);
-        }
-    }
-    let lanes = std::env::var("DIAG_LANES").is_ok();
-    let clips: Vec<MotionClip> = clips
-        .iter()
-        .map(|c| {
-            let c = c.placed_on_walkway();
-            if lanes {
-                trigait_motion::walkway_loop(&c, 1.0, 1.0).unwrap()
-            } else {
-                there_and_back(&c).unwrap()
-            }
-        })
-        .collect();
+    let turns = if std::env::var("DIAG_LANES").is_ok() {
+        Turns::Unseen
+    } else {
+        Turns::Spun
+    };
+    let Some(laps) = all_laps(turns) else {
+        return;
+    };
     let mut table = BTreeMap::new();
-    for c in &clips {
-        run(
-            c,
-            if lanes { Turns::Unseen } else { Turns::Spun },
-            10.0,
-            &mut table,
-        );
+    for (_, lap) in &laps {
+        run(lap, turns, 10.0, &mut table);
     }
     for (key, [ankle, foot]) in &table {
         for (what, t) in [("ankle", ankle), ("foot", foot)] {
@@ -263,16 +243,17 @@ fn trace_frames() {
     let from: f64 = std::env::var("TRACE_FROM").map_or(0.7, |s| s.parse().unwrap());
     let to: f64 = std::env::var("TRACE_TO").map_or(1.1, |s| s.parse().unwrap());
     let clip = if which == "walker" {
-        walker(&WalkerParams::default(), 3.0, 100.0).unwrap()
+        walk()
     } else {
         let path = trigait_test_data::shared_file(&which).unwrap();
         trigait_motion::load_motion(&path).unwrap()
     };
     let lap = if std::env::var("TRACE_LANES").is_ok() {
-        trigait_motion::walkway_loop(&clip.placed_on_walkway(), 1.0, 1.0).unwrap()
+        Turns::Unseen
     } else {
-        there_and_back(&clip.placed_on_walkway()).unwrap()
-    };
+        Turns::Spun
+    }
+    .lap(&clip);
     let rig = Rig::builtin("thesis").unwrap();
     let pose = rig.sensors[k].world_from_kinect;
     let mut renderer = super::tests::seeded_renderer(&pose, seed);

@@ -280,7 +280,12 @@ impl Component {
         let (lo, hi) = self.height_range_m;
         lo < params.max_foot_height_m
             && (hi > params.min_person_height_m || self.at_border && hi > 0.5)
-            && self.radius_m < params.max_person_radius_m
+            && self.person_sized(params)
+    }
+
+    /// Whether it is as wide and as large as a person.
+    fn person_sized(&self, params: &crate::SegmentParams) -> bool {
+        self.radius_m < params.max_person_radius_m
             && (params.min_person_area_m2..params.max_person_area_m2).contains(&self.area_m2)
     }
 }
@@ -307,8 +312,7 @@ pub(crate) fn too_close(
         let (lo, hi) = c.height_range_m;
         lo >= params.max_foot_height_m
             && hi - lo >= TOO_CLOSE_SPAN_M
-            && c.radius_m < params.max_person_radius_m
-            && (params.min_person_area_m2..params.max_person_area_m2).contains(&c.area_m2)
+            && c.person_sized(params)
             && lower_edge.contains(&c.label)
     })
 }

@@ -8,10 +8,14 @@ use super::*;
 
 const RATE_HZ: f64 = 30.0;
 
+/// The walker's 3 s walk.
+pub(super) fn walk() -> MotionClip {
+    walker(&WalkerParams::default(), 3.0, 100.0).unwrap()
+}
+
 /// The walker as the default graph plays it: a 3 s walk along the walkway, then back.
 fn lap() -> MotionClip {
-    let clip = walker(&WalkerParams::default(), 3.0, 100.0).unwrap();
-    there_and_back(&clip.placed_on_walkway()).unwrap()
+    Turns::Spun.lap(&walk())
 }
 
 /// The tracker as a rigged sensor runs it: the floor from the sensor's pose.
@@ -95,6 +99,18 @@ pub(super) enum Turns {
     /// Out on one lane and back on another, turning unseen: nobody is there during a turn
     /// (the empty room is rendered) and no frame is left out.
     Unseen,
+}
+
+impl Turns {
+    /// `clip` on the thesis rig's walkway as a lap that turns this way (the two-lane lap's
+    /// lanes 1 m apart, a second's turn at each end, as `depth-tracking.yml` walks).
+    pub(super) fn lap(self, clip: &MotionClip) -> MotionClip {
+        let placed = clip.placed_on_walkway();
+        match self {
+            Self::Spun => there_and_back(&placed).unwrap(),
+            Self::Unseen => trigait_motion::walkway_loop(&placed, 1.0, 1.0).unwrap(),
+        }
+    }
 }
 
 /// The sensor noise seed of the tests that pin one deterministic run.
@@ -390,15 +406,17 @@ const MOCAP_WALKS: [&str; 2] = [
 /// `None` when the data is absent outside CI.
 fn mocap_lap(file: &str) -> Option<MotionClip> {
     let path = trigait_test_data::shared_file(file)?;
-    let clip = trigait_motion::load_motion(&path).unwrap();
-    Some(there_and_back(&clip.placed_on_walkway()).unwrap())
+    Some(Turns::Spun.lap(&trigait_motion::load_motion(&path).unwrap()))
 }
 
-/// The walker's lap and both mocap laps, named, or `None` when the data is absent outside CI.
-fn all_laps() -> Option<Vec<(String, MotionClip)>> {
-    let mut laps = vec![("walker".to_string(), lap())];
+/// The walker's lap and both mocap laps turning as `turns` says, named, or `None` when the
+/// data is absent outside CI.
+pub(super) fn all_laps(turns: Turns) -> Option<Vec<(String, MotionClip)>> {
+    let mut laps = vec![("walker".to_string(), turns.lap(&walk()))];
     for file in MOCAP_WALKS {
-        laps.push((file.to_string(), mocap_lap(file)?));
+        let path = trigait_test_data::shared_file(file)?;
+        let clip = trigait_motion::load_motion(&path).unwrap();
+        laps.push((file.to_string(), turns.lap(&clip)));
     }
     Some(laps)
 }
@@ -460,7 +478,7 @@ fn mocap_walks_through_the_renderer() {
 /// measure more.
 #[test]
 fn swapped_frames_over_noise_seeds() {
-    let Some(laps) = all_laps() else {
+    let Some(laps) = all_laps(Turns::Spun) else {
         return;
     };
     let (mut total, mut frames) = (0, 0);
@@ -1011,7 +1029,7 @@ fn a_still_person_gives_still_joints() {
 #[test]
 #[ignore = "a measurement run by hand, about 2 minutes"]
 fn over_ten_noise_seeds() {
-    let Some(laps) = all_laps() else {
+    let Some(laps) = all_laps(Turns::Spun) else {
         return;
     };
     ten_noise_seeds(&laps, Turns::Spun);
@@ -1023,26 +1041,9 @@ fn over_ten_noise_seeds() {
 #[test]
 #[ignore = "a measurement run by hand, about 2 minutes"]
 fn over_ten_noise_seeds_on_two_lanes() {
-    let mut laps = vec![(
-        "walker".to_string(),
-        walker(&WalkerParams::default(), 3.0, 100.0).unwrap(),
-    )];
-    for file in MOCAP_WALKS {
-        let Some(path) = trigait_test_data::shared_file(file) else {
-            return;
-        };
-        laps.push((
-            file.to_string(),
-            trigait_motion::load_motion(&path).unwrap(),
-        ));
-    }
-    let laps: Vec<(String, MotionClip)> = laps
-        .into_iter()
-        .map(|(name, clip)| {
-            let lap = trigait_motion::walkway_loop(&clip.placed_on_walkway(), 1.0, 1.0).unwrap();
-            (name, lap)
-        })
-        .collect();
+    let Some(laps) = all_laps(Turns::Unseen) else {
+        return;
+    };
     ten_noise_seeds(&laps, Turns::Unseen);
 }
 
