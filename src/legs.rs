@@ -9,12 +9,19 @@
 //! an SDK-like state. The floor comes from the sensor's pose (`--rig` and `--sensor`) or is
 //! fitted to the depth. `--out` writes per frame the person mask as an 8-bit PNG (255 =
 //! person) and an overlay: the depth in grey, the person tinted, the fitted legs drawn.
+//!
+//! A frame with no depth at all (all zeros, as a sensor sends while it starts up) is tracked
+//! like any other and reported `no_data`. A file of a sequence that is not a depth frame (a
+//! truncated PNG, a colour image) is listed in its place as `unreadable`, with the reason; the
+//! other frames are still tracked and reported, and the run then ends with an error naming
+//! how many files could not be read. A sequence of more than one frame ends with the count of
+//! frames in each state.
 
 use std::path::{Path, PathBuf};
 
 use eyre::{WrapErr as _, bail, eyre};
 use serde::Serialize;
-use trigait_depth::io::{list_pngs, read_depth_png, read_mask_png, write_gray8_png};
+use trigait_depth::io::{list_pngs, read_depth_png_as_recorded, read_mask_png, write_gray8_png};
 use trigait_depth::render::Image;
 use trigait_depth::{HEIGHT, WIDTH};
 use trigait_leg_tracker::{Camera, LegTracker, TrackedFrame, TrackerConfig};
@@ -60,6 +67,22 @@ struct FrameJson<'a> {
     overlay_png: Option<PathBuf>,
 }
 
+/// A file of a sequence that could not be read as a depth frame: listed in its place, and the
+/// rest of the sequence is still tracked.
+#[derive(Debug, Serialize)]
+struct UnreadableJson<'a> {
+    file: &'a Path,
+    status: &'static str,
+    error: String,
+}
+
+#[derive(Debug, Serialize)]
+#[serde(untagged)]
+enum EntryJson<'a> {
+    Frame(FrameJson<'a>),
+    Unreadable(UnreadableJson<'a>),
+}
+
 #[derive(Debug, Serialize)]
 struct ReportJson<'a> {
     tool: &'static str,
@@ -67,7 +90,18 @@ struct ReportJson<'a> {
     rig: Option<&'a str>,
     sensor: Option<&'a str>,
     mirrored: bool,
-    frames: Vec<FrameJson<'a>>,
+    frames: Vec<EntryJson<'a>>,
+}
+
+/// One input file: tracked (with its IoU and the images written), or why it could not be read.
+enum Outcome {
+    Tracked {
+        tracked: Box<TrackedFrame>,
+        iou: Option<f64>,
+        mask_png: Option<PathBuf>,
+        overlay_png: Option<PathBuf>,
+    },
+    Unreadable(trigait_depth::Error),
 }
 
 /// Runs the subcommand.
@@ -121,7 +155,16 @@ pub fn run(args: &Args) -> eyre::Result<()> {
     let mut tracker = LegTracker::new(config).wrap_err("the tracker's configuration")?;
     let mut results = Vec::with_capacity(files.len());
     for file in &files {
-        let depth = read_depth_png(file).wrap_err("reading a depth frame")?;
+        // One file alone must be a depth frame; in a sequence, a file that is not is listed
+        // in its place and the others are still tracked (the run then ends with an error).
+        let depth = match read_depth_png_as_recorded(file) {
+            Ok(depth) => depth,
+            Err(e) if files.len() == 1 => return Err(e).wrap_err("reading a depth frame"),
+            Err(e) => {
+                results.push((file, Outcome::Unreadable(e)));
+                continue;
+            }
+        };
         let tracked = tracker.track(&depth);
         let iou = mask
             .as_ref()
@@ -151,7 +194,15 @@ pub fn run(args: &Args) -> eyre::Result<()> {
             }
             None => (None, None),
         };
-        results.push((file, tracked, iou, mask_png, overlay_png));
+        results.push((
+            file,
+            Outcome::Tracked {
+                tracked: Box::new(tracked),
+                iou,
+                mask_png,
+                overlay_png,
+            },
+        ));
     }
     if args.json {
         let report = ReportJson {
@@ -162,25 +213,82 @@ pub fn run(args: &Args) -> eyre::Result<()> {
             mirrored: args.mirrored,
             frames: results
                 .iter()
-                .map(|(file, tracked, iou, mask_png, overlay_png)| FrameJson {
-                    file,
-                    tracked,
-                    iou: *iou,
-                    mask_png: mask_png.clone(),
-                    overlay_png: overlay_png.clone(),
+                .map(|(file, outcome)| match outcome {
+                    Outcome::Tracked {
+                        tracked,
+                        iou,
+                        mask_png,
+                        overlay_png,
+                    } => EntryJson::Frame(FrameJson {
+                        file,
+                        tracked,
+                        iou: *iou,
+                        mask_png: mask_png.clone(),
+                        overlay_png: overlay_png.clone(),
+                    }),
+                    Outcome::Unreadable(e) => EntryJson::Unreadable(UnreadableJson {
+                        file,
+                        status: "unreadable",
+                        error: e.to_string(),
+                    }),
                 })
                 .collect(),
         };
-        return crate::stdout::print_json(&report);
+        crate::stdout::print_json(&report)?;
+    } else {
+        let mut text = String::new();
+        for (file, outcome) in &results {
+            match outcome {
+                Outcome::Tracked {
+                    tracked,
+                    iou,
+                    mask_png,
+                    overlay_png,
+                } => {
+                    text += &table(file, tracked, *iou);
+                    if let (Some(m), Some(o)) = (mask_png, overlay_png) {
+                        text += &format!("  wrote {} and {}\n", m.display(), o.display());
+                    }
+                }
+                Outcome::Unreadable(e) => text += &format!("unreadable: {e}\n"),
+            }
+        }
+        if results.len() > 1 {
+            text += &summary(&results);
+        }
+        crate::stdout::print(&text)?;
     }
-    let mut text = String::new();
-    for (file, tracked, iou, mask_png, overlay_png) in &results {
-        text += &table(file, tracked, *iou);
-        if let (Some(m), Some(o)) = (mask_png, overlay_png) {
-            text += &format!("  wrote {} and {}\n", m.display(), o.display());
+    let unreadable: Vec<&Path> = results
+        .iter()
+        .filter(|(_, o)| matches!(o, Outcome::Unreadable(_)))
+        .map(|(f, _)| f.as_path())
+        .collect();
+    match unreadable.first() {
+        None => Ok(()),
+        Some(first) => bail!(
+            "{} of {} files could not be read as depth frames (listed in the report), the first {}",
+            unreadable.len(),
+            results.len(),
+            first.display()
+        ),
+    }
+}
+
+/// The sequence in one line: how many frames came out in each state.
+fn summary(results: &[(&PathBuf, Outcome)]) -> String {
+    let mut counts: Vec<(String, usize)> = Vec::new();
+    for (_, outcome) in results {
+        let name = match outcome {
+            Outcome::Tracked { tracked, .. } => format!("{:?}", tracked.status),
+            Outcome::Unreadable(_) => "unreadable".to_owned(),
+        };
+        match counts.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, c)) => *c += 1,
+            None => counts.push((name, 1)),
         }
     }
-    crate::stdout::print(&text)
+    let parts: Vec<String> = counts.iter().map(|(n, c)| format!("{n} {c}")).collect();
+    format!("{} frames: {}\n", results.len(), parts.join(", "))
 }
 
 fn state_name(state: TrackingState) -> &'static str {

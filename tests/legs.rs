@@ -132,3 +132,68 @@ fn bad_input_is_a_clear_error() {
         "--sensor k9: not in the rig",
     );
 }
+
+/// A sequence as recorded: an all-zero frame (a sensor starting up) is tracked and reported
+/// `no_data`, alone as in a sequence; a truncated file among the frames is listed in its
+/// place as `unreadable` with the reason, the frames around it are still tracked, and the run
+/// exits 2 saying how many files could not be read; the text ends with the count per state.
+#[test]
+fn a_recorded_sequence_with_an_empty_frame_and_a_broken_file() {
+    let Some(real) = trigait_test_data::shared_file("kinect-v2-depth-person/004378_depth.png")
+    else {
+        return;
+    };
+    let dir = scratch("sequence");
+    let zeros = dir.join("000_zeros.png");
+    trigait_depth::io::write_depth_png(&zeros, &trigait_depth::DepthFrame::zeros()).unwrap();
+    let broken = dir.join("002_truncated.png");
+    let bytes = std::fs::read(&real).unwrap();
+    std::fs::write(&broken, &bytes[..bytes.len() / 2]).unwrap();
+    let (z, r, b) = (
+        zeros.to_str().unwrap(),
+        real.to_str().unwrap(),
+        broken.to_str().unwrap(),
+    );
+
+    let alone = common::stdout_json(&trigait(&[z, "--json"]));
+    assert_eq!(alone["frames"][0]["status"], "no_data", "{alone:#}");
+
+    let out = trigait(&[z, r, b, "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("1 of 3 files could not be read")
+            && err.contains(b)
+            && !err.contains("panicked"),
+        "{err}"
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let frames = report["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3, "{report:#}");
+    assert_eq!(frames[0]["status"], "no_data");
+    assert_eq!(frames[1]["status"], "tracking");
+    assert!(
+        frames[1]["joints"].as_array().unwrap().len() >= 6,
+        "{:#}",
+        frames[1]
+    );
+    assert_eq!(frames[2]["status"], "unreadable");
+    assert_eq!(frames[2]["file"], b);
+    assert!(
+        frames[2]["error"]
+            .as_str()
+            .unwrap()
+            .contains("not a readable PNG"),
+        "{:#}",
+        frames[2]
+    );
+
+    let text = trigait(&[z, r, b]);
+    assert_eq!(text.status.code(), Some(2));
+    let stdout = String::from_utf8_lossy(&text.stdout);
+    assert_eq!(
+        stdout.lines().last(),
+        Some("3 frames: NoData 1, Tracking 1, unreadable 1"),
+        "{stdout}"
+    );
+}

@@ -65,6 +65,18 @@ fn read_pixels(path: &Path, reader: &mut png::Reader<BufReader<File>>) -> Result
 /// The file is missing or unreadable, not a PNG, not 16-bit grayscale (an 8-bit preview),
 /// not 512×424, or has no non-zero pixel. Each error names the file.
 pub fn read_depth_png(path: &Path) -> Result<DepthFrame> {
+    let frame = read_depth_png_as_recorded(path)?;
+    frame.ensure_valid(&path.display().to_string())?;
+    Ok(frame)
+}
+
+/// Reads a depth PNG as [`read_depth_png`] does, but keeps a frame with no non-zero pixel:
+/// in a recorded sequence an all-zero frame is a frame the sensor sent with nothing in it
+/// (while it starts up, or blinded), which a tracker reports as such rather than a broken file.
+///
+/// # Errors
+/// As [`read_depth_png`], except for the all-zero frame.
+pub fn read_depth_png_as_recorded(path: &Path) -> Result<DepthFrame> {
     let mut reader = open_png(path, png::Transformations::IDENTITY)?;
     let info = reader.info();
     check_size(path, info)?;
@@ -86,9 +98,7 @@ pub fn read_depth_png(path: &Path) -> Result<DepthFrame> {
         .chunks_exact(2)
         .map(|b| u16::from_be_bytes([b[0], b[1]]))
         .collect();
-    let frame = DepthFrame::from_mm(depth)?;
-    frame.ensure_valid(&path.display().to_string())?;
-    Ok(frame)
+    DepthFrame::from_mm(depth)
 }
 
 /// Reads a 512×424 mask PNG (any bit depth or colour type): a pixel is inside when any of its

@@ -6,7 +6,8 @@
 use std::path::PathBuf;
 
 use trigait_depth::io::{
-    list_pngs, read_depth_png, read_mask_png, write_depth_png, write_gray8_png,
+    list_pngs, read_depth_png, read_depth_png_as_recorded, read_mask_png, write_depth_png,
+    write_gray8_png,
 };
 use trigait_depth::{DepthFrame, Error, HEIGHT, PIXELS, WIDTH};
 
@@ -52,7 +53,7 @@ fn wrong_size_is_rejected() {
 }
 
 /// An all-zero frame, an empty mask, an empty directory, a missing file and a non-PNG file
-/// are errors that name the path.
+/// are errors that name the path; read as recorded, the all-zero frame is the frame it is.
 #[test]
 fn empty_and_missing_inputs_are_rejected() {
     let dir = scratch("empty");
@@ -60,6 +61,10 @@ fn empty_and_missing_inputs_are_rejected() {
     write_depth_png(&zeros, &DepthFrame::zeros()).unwrap();
     let err = read_depth_png(&zeros).unwrap_err();
     assert!(matches!(err, Error::NoValidPixels { .. }) && err.to_string().contains("zeros.png"));
+    assert_eq!(
+        read_depth_png_as_recorded(&zeros).unwrap(),
+        DepthFrame::zeros()
+    );
     let empty_mask = dir.join("mask.png");
     write_gray8_png(&empty_mask, WIDTH, HEIGHT, &vec![0; PIXELS]).unwrap();
     assert!(matches!(
