@@ -275,8 +275,9 @@ pub fn load_input(
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     if is_sdk_text(path) {
-        let frames = trigait_motion::read_sdk_skeletons(path)
+        let log = trigait_motion::read_sdk_log(path)
             .wrap_err_with(|| format!("reading Kinect skeletons from {}", path.display()))?;
+        let frames = log.frames;
         let timed = trigait_motion::is_timed(&frames);
         if timed && rate_hz.is_some() {
             eyre::bail!(
@@ -300,6 +301,13 @@ pub fn load_input(
             sdk.inferred_dropped + sdk.inferred_kept,
             if keep_inferred { "kept" } else { "dropped" }
         )];
+        if let Some(cut) = log.cut_last_line {
+            notes.push(format!(
+                "the last line ({}) stops midway ({} of {} columns, no line end), as a logger \
+                 stopped while writing it leaves it: left out",
+                cut.line, cut.columns, cut.expected
+            ));
+        }
         if sdk.swapped_frames > 0 {
             let runs: Vec<String> = sdk
                 .swapped_runs

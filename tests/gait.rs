@@ -502,3 +502,37 @@ fn an_untimed_log_gets_its_clock_checked_and_given() {
         );
     }
 }
+
+/// A Kinect log whose last line a logger stopped writing midway (the Straight log cut inside
+/// its line 59) is analysed as the log of its complete lines, with a note saying the line was
+/// left out.
+#[test]
+fn a_log_cut_off_mid_line_is_read_to_its_last_complete_line() {
+    let Some(straight) =
+        trigait_test_data::shared_file("kinect-v2-skeleton-replay/JointsInfo_Straight.txt")
+    else {
+        return;
+    };
+    let text = std::fs::read_to_string(&straight).unwrap();
+    let cut = &text[..40_000];
+    let complete = &cut[..=cut.rfind('\n').unwrap()];
+    assert_eq!(complete.lines().count(), 58);
+    let dir = std::env::temp_dir().join(format!("trigait-gait-cut-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (cut_path, complete_path) = (dir.join("cut.txt"), dir.join("complete.txt"));
+    std::fs::write(&cut_path, cut).unwrap();
+    std::fs::write(&complete_path, complete).unwrap();
+    let (a, b) = (json(&cut_path, &[]), json(&complete_path, &[]));
+    let notes = a["notes"].as_array().unwrap();
+    assert!(
+        notes.iter().any(|n| n
+            .as_str()
+            .unwrap()
+            .contains("the last line (59) stops midway")),
+        "{notes:#?}"
+    );
+    assert_eq!(a["duration_secs"], b["duration_secs"]);
+    assert_eq!(a["events"], b["events"]);
+    assert_eq!(a["summary"], b["summary"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}

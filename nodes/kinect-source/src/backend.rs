@@ -122,9 +122,19 @@ impl Source {
                 Ok(Source::Sim(Box::new(sensor)))
             }
             Backend::Replay { file, fast, looped } => {
-                let mut frames = trigait_motion::read_sdk_skeletons(file).with_context(|| {
+                let log = trigait_motion::read_sdk_log(file).with_context(|| {
                     format!("kinect-source: {}={}", config::REPLAY_FILE, file.display())
                 })?;
+                if let Some(cut) = log.cut_last_line {
+                    tracing::warn!(
+                        "{}: the last line ({}) stops midway ({} of {} columns, no line end): left out",
+                        file.display(),
+                        cut.line,
+                        cut.columns,
+                        cut.expected
+                    );
+                }
+                let mut frames = log.frames;
                 // The SDK labels a back as a front: walking away, its sides are swapped back
                 // here, in this sensor's own camera frame, before sync ever pairs them.
                 let rate_hz = 1e9 / config.period_nanos() as f64;

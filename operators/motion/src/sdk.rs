@@ -56,6 +56,86 @@ pub fn read_sdk_skeletons(path: impl AsRef<Path>) -> Result<Vec<SdkFrame>> {
     })
 }
 
+/// A Kinect v2 SDK skeleton log as read by [`read_sdk_log`]: its frames, and the last line if a
+/// logger stopped writing midway through it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SdkLog {
+    /// The frames of the complete lines.
+    pub frames: Vec<SdkFrame>,
+    /// The unfinished last line, left out.
+    pub cut_last_line: Option<CutLine>,
+}
+
+/// A last line a logger stopped writing midway: no line end, and fewer columns than the line
+/// before it or a last value cut short.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CutLine {
+    /// 1-based line number.
+    pub line: usize,
+    /// Its columns.
+    pub columns: usize,
+    /// The line before's columns.
+    pub expected: usize,
+}
+
+/// Reads a Kinect v2 SDK skeleton text file as [`read_sdk_skeletons`] does, but takes a file
+/// whose last line was cut off (a logger stopped, or the copy was, while writing it): that
+/// line is left out and said ([`SdkLog::cut_last_line`]), and the complete lines are read.
+/// Any other malformed line is still an error.
+///
+/// # Errors
+/// As [`read_sdk_skeletons`].
+pub fn read_sdk_log(path: impl AsRef<Path>) -> Result<SdkLog> {
+    let path = path.as_ref();
+    let text =
+        trigait_input_limits::read_bounded_text(path, crate::MAX_MOTION_FILE_BYTES, "motion file")
+            .map_err(|source| Error::Io {
+                path: path.to_owned(),
+                source,
+            })?;
+    parse_sdk_log(&text).map_err(|(line, reason)| Error::SdkSkeleton {
+        path: path.to_owned(),
+        line,
+        reason,
+    })
+}
+
+/// Parses the text of a Kinect v2 SDK skeleton file as [`read_sdk_log`] reads it; errors are
+/// `(1-based line, reason)`.
+pub fn parse_sdk_log(text: &str) -> std::result::Result<SdkLog, (usize, String)> {
+    let whole = match parse_sdk_skeletons(text) {
+        Ok(frames) => {
+            return Ok(SdkLog {
+                frames,
+                cut_last_line: None,
+            });
+        }
+        Err(e) => e,
+    };
+    // The last line, if the text does not end it.
+    let start = text.rfind('\n').map_or(0, |i| i + 1);
+    let last: Vec<&str> = text[start..].split_whitespace().collect();
+    let before = &text[..start];
+    let Some(previous) = before.lines().rev().find(|l| !l.trim().is_empty()) else {
+        return Err(whole);
+    };
+    let line = before.lines().count() + 1;
+    let expected = previous.split_whitespace().count();
+    let cut_value = last.last().is_some_and(|v| v.parse::<f64>().is_err());
+    if last.is_empty() || whole.0 != line || !(last.len() < expected || cut_value) {
+        return Err(whole);
+    }
+    let frames = parse_sdk_skeletons(before)?;
+    Ok(SdkLog {
+        frames,
+        cut_last_line: Some(CutLine {
+            line,
+            columns: last.len(),
+            expected,
+        }),
+    })
+}
+
 /// Zeros a timed log writes instead of 25 joints × 7 values when no body is tracked.
 const NO_BODY_ZEROS: usize = 175;
 
@@ -803,6 +883,51 @@ mod tests {
         let again = sdk_clip("chu", &frames, 30.0, true).unwrap();
         assert_eq!(again.swapped_frames, 0, "{:?}", again.swapped_runs);
         assert!(same(&again.clip, clip));
+    }
+
+    /// A last line cut off mid-write (no line end; fewer columns, or its last value cut to
+    /// no number) is left out and said; cut anywhere else, or ended, it is still an error,
+    /// and a complete last line that breaks the order is not taken for a cut one.
+    #[test]
+    fn a_last_line_cut_off_is_left_out_and_said() {
+        let mut line = String::from("7");
+        for _ in 0..75 {
+            line.push_str(" 0.5");
+        }
+        let numbered = |n: u32| line.replacen('7', &n.to_string(), 1);
+        let complete = format!("{}\n{}\n", numbered(7), numbered(8));
+        let log = parse_sdk_log(&complete).unwrap();
+        assert_eq!((log.frames.len(), log.cut_last_line), (2, None));
+
+        let cut = format!("{complete}{}", &numbered(9)[..40]);
+        let log = parse_sdk_log(&cut).unwrap();
+        assert_eq!(log.frames.len(), 2);
+        assert_eq!(
+            log.cut_last_line,
+            Some(CutLine {
+                line: 3,
+                columns: 11,
+                expected: 76
+            })
+        );
+        // Cut inside its last value, to a sign.
+        let sign = format!("{complete}{} -", &numbered(9)[..numbered(9).len() - 4]);
+        assert_eq!(
+            parse_sdk_log(&sign).unwrap().cut_last_line.unwrap().columns,
+            76
+        );
+        // The strict reader refuses it, naming the line.
+        assert_eq!(parse_sdk_skeletons(&cut).unwrap_err().0, 3);
+        // Ended by a line end, it was written short: an error.
+        assert_eq!(parse_sdk_log(&format!("{cut}\n")).unwrap_err().0, 3);
+        // A short line in the middle: an error.
+        let middle = format!("{}\n{}\n{}", numbered(7), &numbered(8)[..40], numbered(9));
+        assert_eq!(parse_sdk_log(&middle).unwrap_err().0, 2);
+        // Complete but going back: the order error, not a cut.
+        let back = format!("{complete}{}", numbered(3));
+        assert!(parse_sdk_log(&back).unwrap_err().1.contains("go back"));
+        // Nothing before the cut line: no frames.
+        assert!(parse_sdk_log(&numbered(9)[..40]).is_err());
     }
 
     /// A short line and a non-number are errors naming the line, never panics.

@@ -154,7 +154,7 @@ fn read(kind: Kind, path: &Path) {
             let _ = trigait_motion::read_csv(path);
         }
         Kind::Sdk => {
-            let _ = trigait_motion::read_sdk_skeletons(path);
+            let _ = trigait_motion::read_sdk_log(path);
         }
         Kind::DepthPng => {
             let _ = trigait_depth::io::read_depth_png(path);
