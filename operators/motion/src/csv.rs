@@ -303,8 +303,12 @@ fn parse_csv(path: &Path, text: &str) -> Result<MotionClip> {
         ));
     }
     // Rows are evenly spaced (a gap is a row of empty cells): a row off the grid would put
-    // every later frame at the wrong time.
-    let step = (last - first) / (times.len() - 1) as f64;
+    // every later frame at the wrong time. The spacing is the median step, so that the row
+    // named is the one off the grid (a clock that jumped) and not one the jump skews a mean
+    // away from.
+    let mut steps: Vec<f64> = times.windows(2).map(|p| p[1].0 - p[0].0).collect();
+    steps.sort_by(f64::total_cmp);
+    let step = steps[steps.len() / 2];
     for pair in times.windows(2) {
         let [(t0, _), (t1, line)] = [pair[0], pair[1]];
         if ((t1 - t0) - step).abs() > 0.01 * step + 2e-6 {
@@ -313,7 +317,8 @@ fn parse_csv(path: &Path, text: &str) -> Result<MotionClip> {
                 line,
                 format!(
                     "time_s {t1} is {:.6} s after the row before, the file's rows are {step:.6} s \
-                     apart on average: rows must be evenly spaced (a gap is a row of empty cells)",
+                     apart (median): rows must be evenly spaced (a gap is a row of empty cells; \
+                     a clock that jumped splits the file in two)",
                     t1 - t0
                 ),
             ));

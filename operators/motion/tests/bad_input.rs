@@ -120,6 +120,26 @@ fn csv_times_must_be_even_and_finite() {
             other => panic!("{time}: expected a Csv error, got {other:?}"),
         }
     }
+    // The clock jumps 100 s forward at line 30: that line is named, with the real spacing.
+    let jumped: Vec<String> = rows
+        .iter()
+        .enumerate()
+        .map(|(i, row)| {
+            let mut cells: Vec<String> = row.split(',').map(str::to_owned).collect();
+            if i + 1 >= 30 {
+                cells[1] = format!("{:.6}", time_of(i + 1) + 100.0);
+            }
+            cells.join(",")
+        })
+        .collect();
+    let file = TempFile::new("jumped.csv", (jumped.join("\n") + "\n").as_bytes());
+    match load_motion(&file.0) {
+        Err(Error::Csv { line, reason, .. }) => {
+            assert_eq!(line, 30, "{reason}");
+            assert!(reason.contains("0.033333 s apart (median)"), "{reason}");
+        }
+        other => panic!("expected a Csv error, got {other:?}"),
+    }
 }
 
 /// A number that is not a number names its line.
