@@ -209,6 +209,17 @@ impl Source {
         }
     }
 
+    /// Starts a simulated lap at host time `epoch_nanos` ([`SimulatedSensor::start_lap_at`]):
+    /// the instant the dataflow was made, shared by every source of the graph. Before
+    /// [`Self::begin_at`]; recordings and replays play from their own start.
+    pub fn start_lap_at(&mut self, epoch_nanos: i64) {
+        match self {
+            Source::Sim(s) => s.start_lap_at(epoch_nanos),
+            Source::BodyDepth(s) => s.start_lap_at(epoch_nanos),
+            Source::Replay(_) | Source::Recording(_) => {}
+        }
+    }
+
     /// Starts the stream at host time `now`: the first frame is due then (on the sensor's
     /// frame grid), not when the source was built. Building it may take a while (a motion or
     /// recording to load, a renderer to set up), and the node connects to the daemon after

@@ -36,17 +36,16 @@ struct Rendered {
     failure: Option<String>,
 }
 
-/// The worker: renders each instant it is sent until the sensor is dropped.
+/// The worker: renders each instant it is sent (its host time, and where in the lap the
+/// body then is) until the sensor is dropped.
 fn render_worker(
     mut renderer: Renderer,
     lap: &MotionClip,
-    jobs: &Receiver<i64>,
+    jobs: &Receiver<(i64, f64)>,
     done: &Sender<Rendered>,
 ) {
-    let lap_nanos = ((lap.duration_secs() * 1e9).round() as i64).max(1);
     let shape = BodyShape::default();
-    while let Ok(t_nanos) = jobs.recv() {
-        let secs = t_nanos.rem_euclid(lap_nanos) as f64 * 1e-9;
+    while let Ok((t_nanos, secs)) = jobs.recv() {
         let (frame, failure) = match renderer.render_pose(&shape, |j| lap.position_at(j, secs)) {
             Ok(r) => (r, None),
             Err(e) => (renderer.render_bodies(&[], Vec::new()), Some(e.to_string())),
@@ -66,7 +65,7 @@ fn render_worker(
 #[derive(Debug)]
 pub struct BodyDepthSensor {
     sim: SimulatedSensor,
-    jobs: Sender<i64>,
+    jobs: Sender<(i64, f64)>,
     done: Receiver<Rendered>,
     /// The instant the worker is rendering or has rendered, not yet taken.
     in_flight: Option<i64>,
@@ -143,8 +142,17 @@ impl BodyDepthSensor {
         }
     }
 
+    /// Starts the lap at host time `epoch_nanos` ([`SimulatedSensor::start_lap_at`]); before
+    /// [`Self::begin_at`], which has the first instant rendered.
+    pub fn start_lap_at(&mut self, epoch_nanos: i64) {
+        if self.in_flight.is_none() {
+            self.sim.start_lap_at(epoch_nanos);
+        }
+    }
+
     fn submit(&mut self, t_nanos: i64) {
-        self.in_flight = self.jobs.send(t_nanos).is_ok().then_some(t_nanos);
+        let job = (t_nanos, self.sim.lap_secs(t_nanos));
+        self.in_flight = self.jobs.send(job).is_ok().then_some(t_nanos);
     }
 
     /// The depth of instant `t_nanos`: the one rendered ahead, or rendered now when the

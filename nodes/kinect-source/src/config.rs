@@ -5,7 +5,7 @@
 //! | `SENSOR_ID` | string | required | the sensor's id in the rig file (`k1`) |
 //! | `RIG` | `thesis`, `ring-N` or a YAML path | `thesis` | sensor poses (the simulator needs them) |
 //! | `BACKEND` | `sim`, `body-depth`, `replay`, `recording`, `freenect2` | `sim` | where frames come from (`body-depth`: simulated depth of the body instead of skeleton frames, [`crate::body_depth`]) |
-//! | `MOTION` | `walker` or a C3D/TRC/CSV path | `walker` | what the simulated subject does (played there and back, endlessly; `sim` and `body-depth`) |
+//! | `MOTION` | `walker` or a C3D/TRC/CSV path | `walker` | what the simulated subject does (played there and back, endlessly, from the start of the walk when the dataflow is made, so every source of a graph and every run of it agree; `sim` and `body-depth`) |
 //! | `WALK_SECS` | seconds | `2.5` | one-way duration of the embedded walker |
 //! | `LANE_M` | metres, 0–3 | `0` | walk back on a second line this far to the side, turning for a second at either end (no joints reported while turning); `0`: back on the same line, turning on the spot. Every source of a graph needs the same value (`sim` and `body-depth`) |
 //! | `JOINTS` | `legs` or `all` | `legs` | joints reported |

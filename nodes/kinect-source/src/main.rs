@@ -34,10 +34,31 @@ fn main() -> eyre::Result<()> {
         // A real Kinect runs its own loop: frames come when the device sends them.
         return freenect2::main(config).map(|_| ());
     }
-    let source = Source::new(&config, now_nanos())?;
+    let mut source = Source::new(&config, now_nanos())?;
     let (node, events) =
         DoraNode::init_from_env().context("kinect-source: connecting to the dora daemon")?;
+    match made_at_nanos(node.dataflow_id()) {
+        Some(epoch) => source.start_lap_at(epoch),
+        None => warn!(
+            "the dataflow id {} carries no time: a simulated walk's phase follows the host clock",
+            node.dataflow_id()
+        ),
+    }
     run(config, source, node, events).map(|_| ())
+}
+
+/// When the dataflow was made (host time, ns): dora's dataflow ids are time-ordered UUIDs
+/// (version 7), whose first 48 bits are the Unix time in milliseconds. `None` for another
+/// version.
+fn made_at_nanos(id: &dora_node_api::uuid::Uuid) -> Option<i64> {
+    if id.get_version_num() != 7 {
+        return None;
+    }
+    let b = id.as_bytes();
+    let millis = b[..6]
+        .iter()
+        .fold(0_i64, |ms, byte| (ms << 8) | i64::from(*byte));
+    Some(millis * 1_000_000)
 }
 
 /// Counters the node reports when it ends.

@@ -522,3 +522,14 @@ fn recording_backend_errors_and_plays() {
     assert_eq!(first.recorded.map(|r| r.server_stamp_nanos), Some(Some(90)));
     assert_eq!(first.recorded.map(|r| r.received_nanos), Some(Some(95)));
 }
+
+/// The dataflow's id gives the instant it was made: the first 48 bits of a version-7 UUID are
+/// Unix milliseconds (this id is one `dora run` made); another version gives none.
+#[test]
+fn the_dataflow_id_tells_when_it_was_made() {
+    use dora_node_api::uuid::Uuid;
+    let v7 = Uuid::parse_str("01a24f3a-48a7-7a90-b675-8c22e9ab4e93").unwrap();
+    assert_eq!(crate::made_at_nanos(&v7), Some(1_796_625_549_479_000_000));
+    let v4 = Uuid::parse_str("9b2c4d1e-7f3a-4c2b-8d1e-2f3a4b5c6d7e").unwrap();
+    assert_eq!(crate::made_at_nanos(&v4), None);
+}

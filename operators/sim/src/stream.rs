@@ -135,6 +135,8 @@ pub struct SimulatedSensor {
     index: usize,
     rng: ChaCha8Rng,
     lap_nanos: i64,
+    /// Host time at which the lap starts (its phase at instant t is t − this, modulo the lap).
+    lap_epoch_nanos: i64,
     period_nanos: i64,
     next_nanos: i64,
     seq: u64,
@@ -188,6 +190,7 @@ impl SimulatedSensor {
             sim,
             index,
             lap_nanos: lap_nanos.max(1),
+            lap_epoch_nanos: 0,
             period_nanos: period,
             next_nanos: next_on_grid(now, period, phase.rem_euclid(period)),
             seq: 0,
@@ -214,14 +217,29 @@ impl SimulatedSensor {
         }
     }
 
+    /// Starts the lap at host time `epoch_nanos` instead of at the Unix epoch's multiples of
+    /// its length. Every source of a graph is its own process, and they agree on where the
+    /// body is at an instant only through a shared start; counted from when the graph was
+    /// made, every run of a graph also walks the same part of the lap in its first seconds,
+    /// so two graphs run one after the other are scored on the same walking (not one on a
+    /// turn and the other on a stride). Does nothing once a frame has been captured (the body
+    /// would jump).
+    pub fn start_lap_at(&mut self, epoch_nanos: i64) {
+        if self.seq == 0 {
+            self.lap_epoch_nanos = epoch_nanos;
+        }
+    }
+
     /// Whether this sensor sends the ground truth.
     #[must_use]
     pub fn sends_truth(&self) -> bool {
         self.sends_truth
     }
 
-    fn clip_secs(&self, true_nanos: i64) -> f64 {
-        true_nanos.rem_euclid(self.lap_nanos) as f64 * 1e-9
+    /// Where in the lap (seconds) the body is at host time `true_nanos`.
+    #[must_use]
+    pub fn lap_secs(&self, true_nanos: i64) -> f64 {
+        (true_nanos - self.lap_epoch_nanos).rem_euclid(self.lap_nanos) as f64 * 1e-9
     }
 
     /// Captures the frame due ([`Self::next_due`]), stamped by `clock`, with the ground truth
@@ -229,13 +247,9 @@ impl SimulatedSensor {
     pub fn capture(&mut self, clock: &mut SensorClock) -> Captured {
         let t = self.next_nanos;
         let local = clock.local(t);
-        let frame = self.sim.frame(
-            self.index,
-            self.seq,
-            self.clip_secs(t),
-            local,
-            &mut self.rng,
-        );
+        let frame = self
+            .sim
+            .frame(self.index, self.seq, self.lap_secs(t), local, &mut self.rng);
         let mut truth = Vec::new();
         if self.sends_truth {
             let from = self
@@ -247,7 +261,7 @@ impl SimulatedSensor {
                 let at = g * TRUTH_STEP_NANOS;
                 truth.push(GroundTruth {
                     true_stamp_nanos: at,
-                    position_in_world: self.sim.truth(self.clip_secs(at)),
+                    position_in_world: self.sim.truth(self.lap_secs(at)),
                 });
                 self.last_truth_nanos = Some(at);
                 g += 1;
@@ -638,6 +652,33 @@ mod tests {
         assert!(!k3.capture(&mut clock()).truth.is_empty());
         let err = SimulatedSensor::new(&rig, walker_lap(), &params("k9"), start).unwrap_err();
         assert!(err.to_string().contains("k1, k2, k3"), "{err}");
+    }
+
+    /// Two sensors of a graph started at one epoch place the body alike at an instant, the
+    /// lap's phase counting from that epoch: the truth at the epoch is the lap's first pose,
+    /// whatever the host time; once a frame is out, the epoch no longer moves.
+    #[test]
+    fn the_lap_starts_at_the_epoch_given() {
+        let rig = Rig::builtin("thesis").unwrap();
+        let lap_nanos = (walker_lap().duration_secs() * 1e9).round() as i64;
+        for epoch in [1_700_000_000_123_456_789_i64, 1_700_000_003_000_000_000] {
+            let mut k1 = SimulatedSensor::new(&rig, walker_lap(), &params("k1"), epoch).unwrap();
+            let mut k2 = SimulatedSensor::new(&rig, walker_lap(), &params("k2"), epoch).unwrap();
+            k1.start_lap_at(epoch);
+            k2.start_lap_at(epoch);
+            assert_eq!(k1.lap_secs(epoch), 0.0);
+            assert!((k2.lap_secs(epoch + 1_500_000_000) - 1.5).abs() < 1e-9);
+            assert_eq!(k1.lap_secs(epoch + lap_nanos), 0.0);
+            assert_eq!(k1.lap_secs(epoch + 7), k2.lap_secs(epoch + 7));
+            let start = walker_lap().position_at(Joint::AnkleLeft, 0.0).unwrap();
+            let truth = k1.sim.truth(k1.lap_secs(epoch));
+            assert!((truth[&Joint::AnkleLeft] - start).norm() < 1e-9);
+            let mut clock =
+                SensorClock::new(SimClock::new(0, 0.0), epoch, Simulator::sensor_rng(1, 0));
+            k1.capture(&mut clock);
+            k1.start_lap_at(epoch + 1_000_000_000);
+            assert_eq!(k1.lap_secs(epoch), 0.0, "moved after a capture");
+        }
     }
 
     /// A source begun after it was made starts on its grid at the later instant, with seq 0;
