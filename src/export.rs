@@ -78,7 +78,13 @@ pub fn run(args: Args) -> eyre::Result<()> {
     let clip = if crate::gait::is_sdk_text(&args.input) {
         // Kinect SDK skeleton text, read as `trigait gait` reads it (inferred joints dropped,
         // sides put back where the person walks away).
-        crate::gait::load_input(&args.input, false, false, None)?
+        let input = crate::gait::load_input(&args.input, false, false, None)?;
+        // What the reading changed or left out (swapped sides, a cut last line) is said, as
+        // `trigait gait` says it.
+        for note in &input.notes {
+            eprintln!("note: {note}");
+        }
+        input
             .clip
             .ok_or_else(|| eyre::eyre!("{}: no joints", args.input.display()))?
     } else {

@@ -302,11 +302,7 @@ pub fn load_input(
             if keep_inferred { "kept" } else { "dropped" }
         )];
         if let Some(cut) = log.cut_last_line {
-            notes.push(format!(
-                "the last line ({}) stops midway ({} of {} columns, no line end), as a logger \
-                 stopped while writing it leaves it: left out",
-                cut.line, cut.columns, cut.expected
-            ));
+            notes.push(cut.to_string());
         }
         if sdk.swapped_frames > 0 {
             let runs: Vec<String> = sdk

@@ -23,8 +23,8 @@ use eyre::{WrapErr as _, bail, eyre};
 use serde::Serialize;
 use trigait_depth::io::{list_pngs, read_depth_png_as_recorded, read_mask_png, write_gray8_png};
 use trigait_depth::render::Image;
-use trigait_depth::{HEIGHT, WIDTH};
-use trigait_leg_tracker::{Camera, LegTracker, TrackedFrame, TrackerConfig};
+use trigait_depth::{DepthFrame, HEIGHT, WIDTH};
+use trigait_leg_tracker::{Camera, LegTracker, Status, TrackedFrame, TrackerConfig};
 use trigait_skeleton::{Joint, TrackingState};
 
 /// Arguments of `trigait legs`.
@@ -108,6 +108,9 @@ enum Outcome {
 pub fn run(args: &Args) -> eyre::Result<()> {
     let mut files = Vec::new();
     for input in &args.inputs {
+        if !input.exists() {
+            bail!("{}: no such file or directory", input.display());
+        }
         if input.is_dir() {
             files.extend(list_pngs(input).wrap_err("listing the input directory")?);
         } else {
@@ -161,6 +164,9 @@ pub fn run(args: &Args) -> eyre::Result<()> {
             Ok(depth) => depth,
             Err(e) if files.len() == 1 => return Err(e).wrap_err("reading a depth frame"),
             Err(e) => {
+                // The frame's slot in the sequence is kept: the tracker coasts through it as
+                // through a frame without data, rather than joining its neighbours up.
+                tracker.track(&DepthFrame::zeros());
                 results.push((file, Outcome::Unreadable(e)));
                 continue;
             }
@@ -250,7 +256,9 @@ pub fn run(args: &Args) -> eyre::Result<()> {
                         text += &format!("  wrote {} and {}\n", m.display(), o.display());
                     }
                 }
-                Outcome::Unreadable(e) => text += &format!("unreadable: {e}\n"),
+                Outcome::Unreadable(e) => {
+                    text += &format!("{}: unreadable: {e}\n", file.display());
+                }
             }
         }
         if results.len() > 1 {
@@ -274,21 +282,42 @@ pub fn run(args: &Args) -> eyre::Result<()> {
     }
 }
 
-/// The sequence in one line: how many frames came out in each state.
+/// The sequence in one line: how many frames came out in each state, by the names the JSON
+/// report gives them, in the order of [`Status`].
 fn summary(results: &[(&PathBuf, Outcome)]) -> String {
-    let mut counts: Vec<(String, usize)> = Vec::new();
+    const UNREADABLE: usize = 6;
+    let mut counts = [0_usize; UNREADABLE + 1];
     for (_, outcome) in results {
-        let name = match outcome {
-            Outcome::Tracked { tracked, .. } => format!("{:?}", tracked.status),
-            Outcome::Unreadable(_) => "unreadable".to_owned(),
-        };
-        match counts.iter_mut().find(|(n, _)| *n == name) {
-            Some((_, c)) => *c += 1,
-            None => counts.push((name, 1)),
-        }
+        counts[match outcome {
+            Outcome::Tracked { tracked, .. } => tracked.status as usize,
+            Outcome::Unreadable(_) => UNREADABLE,
+        }] += 1;
     }
-    let parts: Vec<String> = counts.iter().map(|(n, c)| format!("{n} {c}")).collect();
+    let names = [
+        Status::NoData,
+        Status::NoFloor,
+        Status::Nobody,
+        Status::Tracking,
+        Status::NoStature,
+        Status::TooClose,
+    ]
+    .map(status_name);
+    let parts: Vec<String> = names
+        .iter()
+        .chain(std::iter::once(&"unreadable".to_owned()))
+        .zip(counts)
+        .filter(|(_, n)| *n > 0)
+        .map(|(name, n)| format!("{name} {n}"))
+        .collect();
     format!("{} frames: {}\n", results.len(), parts.join(", "))
+}
+
+/// A status by the name the JSON report gives it.
+fn status_name(status: Status) -> String {
+    serde_json::to_value(status)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_owned))
+        .unwrap_or_else(|| format!("{status:?}"))
 }
 
 fn state_name(state: TrackingState) -> &'static str {
@@ -302,9 +331,9 @@ fn state_name(state: TrackingState) -> &'static str {
 /// One frame as text: outcome, people, share and IoU, then one line per joint.
 fn table(file: &Path, t: &TrackedFrame, iou: Option<f64>) -> String {
     let mut s = format!(
-        "{}: {:?}, {} person(s) in view, person {} px = {:.1} % of {} valid px",
+        "{}: {}, {} person(s) in view, person {} px = {:.1} % of {} valid px",
         file.display(),
-        t.status,
+        status_name(t.status),
         t.people,
         t.person_pixels,
         100.0 * t.person_share,

@@ -117,6 +117,10 @@ fn bad_input_is_a_clear_error() {
         );
     };
     check(&["/nonexistent/depth.png"], "/nonexistent/depth.png");
+    check(
+        &["/nonexistent/depth.png", "/nonexistent/other.png"],
+        "/nonexistent/depth.png: no such file or directory",
+    );
     check(&["x.png", "--rig", "thesis"], "--sensor");
     let Some(mask) = trigait_test_data::shared_file("kinect-v2-depth-person/004378_mask.png")
     else {
@@ -191,9 +195,10 @@ fn a_recorded_sequence_with_an_empty_frame_and_a_broken_file() {
     let text = trigait(&[z, r, b]);
     assert_eq!(text.status.code(), Some(2));
     let stdout = String::from_utf8_lossy(&text.stdout);
+    assert!(stdout.contains(&format!("{b}: unreadable: ")), "{stdout}");
     assert_eq!(
         stdout.lines().last(),
-        Some("3 frames: NoData 1, Tracking 1, unreadable 1"),
+        Some("3 frames: no_data 1, tracking 1, unreadable 1"),
         "{stdout}"
     );
 }

@@ -126,13 +126,7 @@ impl Source {
                     format!("kinect-source: {}={}", config::REPLAY_FILE, file.display())
                 })?;
                 if let Some(cut) = log.cut_last_line {
-                    tracing::warn!(
-                        "{}: the last line ({}) stops midway ({} of {} columns, no line end): left out",
-                        file.display(),
-                        cut.line,
-                        cut.columns,
-                        cut.expected
-                    );
+                    tracing::warn!("{}: {cut}", file.display());
                 }
                 let mut frames = log.frames;
                 // The SDK labels a back as a front: walking away, its sides are swapped back

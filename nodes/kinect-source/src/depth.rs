@@ -21,15 +21,16 @@
 //! | `DEPTH_RING_PERIOD_PX` | px | `40` | period of the rings, pixels of radius |
 //!
 //! Frames carry the sensor clock's stamp (like skeleton frames) and their own sequence number.
-//! A replayed file that cannot be read is skipped with a warning and counted, not fatal; a
-//! directory without a single readable depth PNG is a configuration error at start.
+//! A replayed file that cannot be read is skipped with a warning and counted, not fatal; an
+//! all-zero frame (a sensor starting up) is a frame and is sent as it is; a directory without
+//! a single depth PNG with data is a configuration error at start.
 
 use std::path::PathBuf;
 
 use dora_node_api::dora_core::config::DataId;
 use dora_node_api::{DoraNode, MetadataParameters, Parameter};
 use eyre::{Context, bail, eyre};
-use trigait_depth::io::{list_pngs, read_depth_png};
+use trigait_depth::io::{list_pngs, read_depth_png, read_depth_png_as_recorded};
 use trigait_depth::lab::{LabTarget, lab_scene};
 use trigait_depth::sim::{SimParams, Simulator};
 use trigait_depth::{HEIGHT, WIDTH};
@@ -261,7 +262,7 @@ impl DepthStream {
                 }
                 let file = &files[*next];
                 *next += 1;
-                match read_depth_png(file) {
+                match read_depth_png_as_recorded(file) {
                     Ok(frame) => break frame.as_mm().to_vec(),
                     Err(e) => {
                         self.skipped += 1;

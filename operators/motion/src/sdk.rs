@@ -42,18 +42,7 @@ pub struct SdkFrame {
 /// [`Error::Io`], or [`Error::SdkSkeleton`] naming the line for a wrong column count or a value
 /// that is not a number; an empty file is an error too.
 pub fn read_sdk_skeletons(path: impl AsRef<Path>) -> Result<Vec<SdkFrame>> {
-    let path = path.as_ref();
-    let text =
-        trigait_input_limits::read_bounded_text(path, crate::MAX_MOTION_FILE_BYTES, "motion file")
-            .map_err(|source| Error::Io {
-                path: path.to_owned(),
-                source,
-            })?;
-    parse_sdk_skeletons(&text).map_err(|(line, reason)| Error::SdkSkeleton {
-        path: path.to_owned(),
-        line,
-        reason,
-    })
+    read_sdk_text(path.as_ref(), parse_sdk_skeletons)
 }
 
 /// A Kinect v2 SDK skeleton log as read by [`read_sdk_log`]: its frames, and the last line if a
@@ -66,16 +55,32 @@ pub struct SdkLog {
     pub cut_last_line: Option<CutLine>,
 }
 
-/// A last line a logger stopped writing midway: no line end, and fewer columns than the line
-/// before it or a last value cut short.
+/// A last line a logger stopped writing midway: no line end, and fewer columns than a whole
+/// line of the file's layout, or a last value cut to no number (a value cut to a shorter
+/// number, `-0.5` of `-0.523`, cannot be told from a whole one).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct CutLine {
     /// 1-based line number.
     pub line: usize,
     /// Its columns.
     pub columns: usize,
-    /// The line before's columns.
+    /// The columns of a whole line of the file's layout.
     pub expected: usize,
+}
+
+impl std::fmt::Display for CutLine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "the last line ({}) stops midway (", self.line)?;
+        if self.columns < self.expected {
+            write!(f, "{} of {} columns", self.columns, self.expected)?;
+        } else {
+            write!(f, "its last value cut short")?;
+        }
+        write!(
+            f,
+            ", no line end), as a logger stopped while writing it leaves it: left out"
+        )
+    }
 }
 
 /// Reads a Kinect v2 SDK skeleton text file as [`read_sdk_skeletons`] does, but takes a file
@@ -86,14 +91,21 @@ pub struct CutLine {
 /// # Errors
 /// As [`read_sdk_skeletons`].
 pub fn read_sdk_log(path: impl AsRef<Path>) -> Result<SdkLog> {
-    let path = path.as_ref();
+    read_sdk_text(path.as_ref(), parse_sdk_log)
+}
+
+/// `path`'s text through `parse`, its errors naming the file.
+fn read_sdk_text<T>(
+    path: &Path,
+    parse: impl FnOnce(&str) -> std::result::Result<T, (usize, String)>,
+) -> Result<T> {
     let text =
         trigait_input_limits::read_bounded_text(path, crate::MAX_MOTION_FILE_BYTES, "motion file")
             .map_err(|source| Error::Io {
                 path: path.to_owned(),
                 source,
             })?;
-    parse_sdk_log(&text).map_err(|(line, reason)| Error::SdkSkeleton {
+    parse(&text).map_err(|(line, reason)| Error::SdkSkeleton {
         path: path.to_owned(),
         line,
         reason,
@@ -120,7 +132,12 @@ pub fn parse_sdk_log(text: &str) -> std::result::Result<SdkLog, (usize, String)>
         return Err(whole);
     };
     let line = before.lines().count() + 1;
-    let expected = previous.split_whitespace().count();
+    // A whole line of the layout the line before shows (a timed log's lines without a body
+    // are shorter than those with one).
+    let expected = match previous.split_whitespace().count() {
+        n @ (76 | 201) => n,
+        _ => 202,
+    };
     let cut_value = last.last().is_some_and(|v| v.parse::<f64>().is_err());
     if last.is_empty() || whole.0 != line || !(last.len() < expected || cut_value) {
         return Err(whole);
@@ -926,8 +943,53 @@ mod tests {
         // Complete but going back: the order error, not a cut.
         let back = format!("{complete}{}", numbered(3));
         assert!(parse_sdk_log(&back).unwrap_err().1.contains("go back"));
-        // Nothing before the cut line: no frames.
-        assert!(parse_sdk_log(&numbered(9)[..40]).is_err());
+        // Nothing before the cut line: the cut line's own error.
+        assert_eq!(parse_sdk_log(&numbered(9)[..40]).unwrap_err().0, 1);
+        // Windows line ends, and trailing spaces after the cut.
+        let crlf = format!(
+            "{}\r\n{}\r\n{}  ",
+            numbered(7),
+            numbered(8),
+            &numbered(9)[..40]
+        );
+        let log = parse_sdk_log(&crlf).unwrap();
+        assert_eq!((log.frames.len(), log.cut_last_line.unwrap().line), (2, 3));
+        // A timed log whose line before the cut one had no body (177 columns): a body line
+        // cut at 190 columns is still short of the layout's 202.
+        let mut states = String::from("9");
+        for _ in 0..25 {
+            states.push_str(" 2 0.5 0.5 0.5 0 0 0 1");
+        }
+        let body = |frame: u32, ms: f64| format!("{frame} {ms} {}", &states[2..]);
+        let no_body = |frame: u32, ms: f64| format!("{frame} {ms}{}", " 0".repeat(175));
+        let whole = body(12, 66.0);
+        let cut_at = whole.match_indices(' ').nth(189).unwrap().0;
+        let timed = format!(
+            "{}\n{}\n{}",
+            body(10, 0.0),
+            no_body(11, 33.0),
+            &whole[..cut_at]
+        );
+        let log = parse_sdk_log(&timed).unwrap();
+        assert_eq!(log.frames.len(), 2);
+        let cut = log.cut_last_line.unwrap();
+        assert_eq!((cut.line, cut.columns, cut.expected), (3, 190, 202));
+        assert!(
+            cut.to_string()
+                .starts_with("the last line (3) stops midway (190 of 202 columns"),
+            "{cut}"
+        );
+        let sign = parse_sdk_log(&format!(
+            "{complete}{} -",
+            &numbered(9)[..numbered(9).len() - 4]
+        ));
+        assert!(
+            sign.unwrap()
+                .cut_last_line
+                .unwrap()
+                .to_string()
+                .contains("its last value cut short")
+        );
     }
 
     /// A short line and a non-number are errors naming the line, never panics.
