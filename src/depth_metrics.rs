@@ -11,12 +11,13 @@
 use std::path::{Path, PathBuf};
 
 use eyre::{WrapErr as _, bail};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use trigait_depth::io::{list_pngs, read_depth_png, read_mask_png};
+use trigait_depth::io::{read_depth_png, read_mask_png};
 use trigait_depth::panoptic::{FloorCheck, FloorParams, floor_check, read_panoptic_calibration};
 use trigait_depth::render::{MapLegend, render_all, with_title};
 use trigait_depth::{MetricsParams, SequenceAnalyzer, SequenceMaps, SequenceReport};
+
+use crate::depth_files::{expand_inputs, progress};
 
 /// Arguments of `trigait depth-metrics`.
 #[derive(Debug, clap::Args)]
@@ -136,34 +137,6 @@ pub fn run(args: Args) -> eyre::Result<()> {
         Some(calibration) => multi_sensor(&args, calibration, &files, mask, params),
         None => sequence(&args, &files, mask, params),
     }
-}
-
-/// Files as given, directories replaced by their PNGs in name order.
-fn expand_inputs(inputs: &[PathBuf]) -> eyre::Result<Vec<PathBuf>> {
-    let mut files = Vec::new();
-    for input in inputs {
-        if input.is_dir() {
-            files.extend(list_pngs(input).wrap_err("listing the input directory")?);
-        } else {
-            files.push(input.clone());
-        }
-    }
-    Ok(files)
-}
-
-fn progress(len: usize, what: &str) -> eyre::Result<ProgressBar> {
-    let bar = if len > 1 {
-        ProgressBar::new(len as u64)
-    } else {
-        ProgressBar::hidden()
-    };
-    bar.set_style(
-        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} frames ({elapsed})")
-            .wrap_err("progress bar template")?
-            .progress_chars("=> "),
-    );
-    bar.set_message(what.to_owned());
-    Ok(bar)
 }
 
 /// Writes every map of `sensor` into `dir` as a PNG titled with the sensor and the metric.

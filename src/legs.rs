@@ -21,11 +21,13 @@ use std::path::{Path, PathBuf};
 
 use eyre::{WrapErr as _, bail, eyre};
 use serde::Serialize;
-use trigait_depth::io::{list_pngs, read_depth_png_as_recorded, read_mask_png, write_gray8_png};
+use trigait_depth::io::{read_depth_png_as_recorded, read_mask_png, write_gray8_png};
 use trigait_depth::render::Image;
 use trigait_depth::{DepthFrame, HEIGHT, WIDTH};
 use trigait_leg_tracker::{Camera, LegTracker, Status, TrackedFrame, TrackerConfig};
 use trigait_skeleton::{Joint, TrackingState};
+
+use crate::depth_files::{expand_inputs, progress};
 
 /// Arguments of `trigait legs`.
 #[derive(Debug, clap::Args)]
@@ -106,17 +108,7 @@ enum Outcome {
 
 /// Runs the subcommand.
 pub fn run(args: &Args) -> eyre::Result<()> {
-    let mut files = Vec::new();
-    for input in &args.inputs {
-        if !input.exists() {
-            bail!("{}: no such file or directory", input.display());
-        }
-        if input.is_dir() {
-            files.extend(list_pngs(input).wrap_err("listing the input directory")?);
-        } else {
-            files.push(input.clone());
-        }
-    }
+    let files = expand_inputs(&args.inputs)?;
     let mask = match &args.mask {
         Some(_) if files.len() != 1 => bail!(
             "--mask is the person mask of one frame, but {} frames were given",
@@ -157,7 +149,9 @@ pub fn run(args: &Args) -> eyre::Result<()> {
     let camera = config.camera;
     let mut tracker = LegTracker::new(config).wrap_err("the tracker's configuration")?;
     let mut results = Vec::with_capacity(files.len());
+    let bar = progress(files.len(), "tracking")?;
     for file in &files {
+        bar.inc(1);
         // One file alone must be a depth frame; in a sequence, a file that is not is listed
         // in its place and the others are still tracked (the run then ends with an error).
         let depth = match read_depth_png_as_recorded(file) {
@@ -210,6 +204,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
             },
         ));
     }
+    bar.finish_and_clear();
     if args.json {
         let report = ReportJson {
             tool: "trigait legs",

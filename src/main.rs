@@ -11,6 +11,7 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod calibrate;
+mod depth_files;
 mod depth_metrics;
 mod devices;
 mod eval;
