@@ -278,17 +278,9 @@ pub fn run(args: &Args) -> eyre::Result<()> {
 }
 
 /// The sequence in one line: how many frames came out in each state, by the names the JSON
-/// report gives them, in the order of [`Status`].
+/// report gives them, in the order of [`Status`], then the files that could not be read.
 fn summary(results: &[(&PathBuf, Outcome)]) -> String {
-    const UNREADABLE: usize = 6;
-    let mut counts = [0_usize; UNREADABLE + 1];
-    for (_, outcome) in results {
-        counts[match outcome {
-            Outcome::Tracked { tracked, .. } => tracked.status as usize,
-            Outcome::Unreadable(_) => UNREADABLE,
-        }] += 1;
-    }
-    let names = [
+    let mut counts: Vec<(String, usize)> = [
         Status::NoData,
         Status::NoFloor,
         Status::Nobody,
@@ -296,11 +288,21 @@ fn summary(results: &[(&PathBuf, Outcome)]) -> String {
         Status::NoStature,
         Status::TooClose,
     ]
-    .map(status_name);
-    let parts: Vec<String> = names
+    .map(|s| (status_name(s), 0))
+    .into();
+    counts.push(("unreadable".to_owned(), 0));
+    for (_, outcome) in results {
+        let name = match outcome {
+            Outcome::Tracked { tracked, .. } => status_name(tracked.status),
+            Outcome::Unreadable(_) => "unreadable".to_owned(),
+        };
+        match counts.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, c)) => *c += 1,
+            None => counts.push((name, 1)),
+        }
+    }
+    let parts: Vec<String> = counts
         .iter()
-        .chain(std::iter::once(&"unreadable".to_owned()))
-        .zip(counts)
         .filter(|(_, n)| *n > 0)
         .map(|(name, n)| format!("{name} {n}"))
         .collect();
