@@ -455,6 +455,14 @@ fn an_untimed_log_gets_its_clock_checked_and_given() {
     let text = trigait(&["gait", straight.to_str().unwrap()]);
     let stdout = String::from_utf8_lossy(&text.stdout);
     assert!(stdout.contains("TIMING IMPLAUSIBLE at 30 Hz"), "{stdout}");
+    let bound = assumed["timing"]["highest_human_rate_hz"].as_f64().unwrap();
+    assert!(bound < 30.0, "{}", assumed["timing"]);
+    assert!(
+        stdout.contains(&format!(
+            "human only if it was logged at about {bound:.0} Hz or less"
+        )),
+        "{stdout}"
+    );
     assert!(
         stdout
             .contains("cadence (steps/min), speed (m/s), stride time (s) scale with the time base"),

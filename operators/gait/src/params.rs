@@ -821,7 +821,7 @@ pub(crate) fn analyse_detection(d: Detection, params: &GaitParams) -> Result<Gai
         });
     }
     let summary = summarise_with_steps(&strides, &steps);
-    let timing = crate::timing::check(&events, &steps);
+    let timing = crate::timing::check(&events, &steps, rate);
     Ok(GaitAnalysis {
         rate_hz: rate,
         duration_secs: d.tracks.len().saturating_sub(1) as f64 / rate,

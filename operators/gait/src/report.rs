@@ -57,8 +57,8 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
         out.push(format!(
             "TIMING IMPLAUSIBLE at {:.0} Hz: median swing {} over {} swings, median step {} over \
              {} steps; no human leg swings in under {:.2} s or steps in under {:.2} s, so the \
-             file's time base is probably wrong and every duration, cadence and speed with it \
-             (for untimed Kinect text, give the true frame rate: `trigait gait --rate`)",
+             file's time base is probably wrong and every duration, cadence and speed with it; \
+             {}(for untimed Kinect text, give the true frame rate: `trigait gait --rate`)",
             a.rate_hz,
             seconds(a.timing.median_swing_secs),
             a.timing.swings,
@@ -66,6 +66,9 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
             a.timing.steps,
             crate::timing::MIN_HUMAN_SWING_SECS,
             crate::timing::MIN_HUMAN_STEP_SECS,
+            human_rate(&a.timing).map_or_else(String::new, |hz| format!(
+                "its swings and steps are human only if it was logged at about {hz:.0} Hz or less "
+            )),
         ));
     }
     out.push(if a.flights.is_empty() {
@@ -124,6 +127,11 @@ fn escape(text: &str) -> String {
 }
 
 /// A duration to the hundredth of a second, or a dash.
+/// The bound on the true rate of a clip whose rhythm is not human at its stated rate.
+fn human_rate(t: &crate::Timing) -> Option<f64> {
+    t.highest_human_rate_hz.filter(|_| t.implausible)
+}
+
 fn seconds(v: Option<f64>) -> String {
     v.map_or_else(|| "-".to_owned(), |s| format!("{s:.2} s"))
 }
@@ -192,11 +200,15 @@ pub fn html(
             "<p class=\"warning\"><strong>The time base looks wrong.</strong> At {:.0} Hz the \
              median swing lasts {} and the median step {}, faster than any human leg. The \
              stride time, the cadence and the speed (marked red) are wrong with it; the lengths, \
-             the width and the stance and swing percentages do not depend on it. For Kinect text \
-             without time stamps, give the true frame rate with <code>--rate</code>.</p>",
+             the width and the stance and swing percentages do not depend on it. {} For Kinect \
+             text without time stamps, give the true frame rate with <code>--rate</code>.</p>",
             a.rate_hz,
             seconds(a.timing.median_swing_secs),
             seconds(a.timing.median_step_secs),
+            human_rate(&a.timing).map_or_else(String::new, |hz| format!(
+                "Its swings and steps are human only if the file was logged at about {hz:.0} Hz \
+                 or less."
+            )),
         );
     }
     let _ = write!(

@@ -12,7 +12,12 @@
 //! [`MIN_HUMAN_STEP_SECS`], therefore says the clock is wrong, not the walker.
 //!
 //! The check only flags; it does not guess the true rate. Estimating a rate from gait norms
-//! would make every figure then read from the file a restatement of those norms.
+//! would make every figure then read from the file a restatement of those norms. It does say
+//! how slow the true rate must at least be: the medians span a number of frames whatever the
+//! rate, so the highest rate at which those frames are still a human swing and step bounds the
+//! rate the file was logged at from above ([`Timing::highest_human_rate_hz`]). The bound is
+//! approximate: the filter and the event windows depend on the rate, so the events found at
+//! another rate span slightly different frames.
 //!
 //! Reference: Weyand, Sternlight, Bellizzi, Wright (2000). Faster top running speeds are
 //! achieved with greater ground forces not more rapid leg movements. *J. Appl. Physiol.* 89(5),
@@ -47,6 +52,12 @@ pub struct Timing {
     /// ([`MIN_HUMAN_SWING_SECS`], [`MIN_HUMAN_STEP_SECS`]): the clip's time base is then
     /// probably wrong.
     pub implausible: bool,
+    /// The highest frame rate (Hz) at which the median swing and step, counted in frames,
+    /// would still last [`MIN_HUMAN_SWING_SECS`] and [`MIN_HUMAN_STEP_SECS`]: at or above the
+    /// clip's rate when its rhythm is human, and an upper bound on the true rate when it is
+    /// not. `None` when neither median was measured.
+    #[serde(default)]
+    pub highest_human_rate_hz: Option<f64>,
 }
 
 /// Swing durations (s) of `events`, in no particular order.
@@ -68,9 +79,9 @@ fn swings(events: &[GaitEvent]) -> Vec<f64> {
     out
 }
 
-/// Judges the rhythm of `events` and `steps`.
+/// Judges the rhythm of `events` and `steps`, timed at `rate_hz` frames per second.
 #[must_use]
-pub fn check(events: &[GaitEvent], steps: &[Step]) -> Timing {
+pub fn check(events: &[GaitEvent], steps: &[Step], rate_hz: f64) -> Timing {
     let mut swing = swings(events);
     let mut step: Vec<f64> = steps.iter().map(|s| s.step_time_secs).collect();
     let (swings, steps) = (swing.len(), step.len());
@@ -78,12 +89,20 @@ pub fn check(events: &[GaitEvent], steps: &[Step]) -> Timing {
     let median_step_secs = (steps >= MIN_SAMPLES).then(|| crate::clean::median(&mut step));
     let implausible = median_swing_secs.is_some_and(|s| s < MIN_HUMAN_SWING_SECS)
         || median_step_secs.is_some_and(|s| s < MIN_HUMAN_STEP_SECS);
+    let highest_human_rate_hz = [
+        median_swing_secs.map(|s| rate_hz * s / MIN_HUMAN_SWING_SECS),
+        median_step_secs.map(|s| rate_hz * s / MIN_HUMAN_STEP_SECS),
+    ]
+    .into_iter()
+    .flatten()
+    .reduce(f64::min);
     Timing {
         swings,
         median_swing_secs,
         steps,
         median_step_secs,
         implausible,
+        highest_human_rate_hz,
     }
 }
 
@@ -103,7 +122,8 @@ mod tests {
     }
 
     /// A 1.1 s stride with 40 % swing passes; the same events on a clock running 3× fast
-    /// (every time divided by 3) are flagged.
+    /// (every time divided by 3) are flagged, with the bound on the true rate a third of the
+    /// bound at the right clock.
     #[test]
     fn a_fast_clock_is_flagged() {
         let walk = |scale: f64| -> Vec<GaitEvent> {
@@ -121,12 +141,20 @@ mod tests {
             }
             v
         };
-        let real = check(&walk(1.0), &[]);
+        let real = check(&walk(1.0), &[], 100.0);
         assert_eq!(real.swings, 7, "{real:?}");
         assert!((real.median_swing_secs.unwrap() - 0.44).abs() < 1e-9);
         assert!(!real.implausible);
-        let fast = check(&walk(3.0), &[]);
+        let bound = real.highest_human_rate_hz.unwrap();
+        assert!(
+            (bound - 100.0 * 0.44 / MIN_HUMAN_SWING_SECS).abs() < 1e-9,
+            "{bound}"
+        );
+        let fast = check(&walk(3.0), &[], 100.0);
         assert!(fast.implausible, "{fast:?}");
+        let fast_bound = fast.highest_human_rate_hz.unwrap();
+        assert!(fast_bound < 100.0, "{fast:?}");
+        assert!((fast_bound - bound / 3.0).abs() < 1e-9, "{fast:?}");
     }
 
     /// One swing is too little to judge; swings across segments are not swings.
@@ -140,9 +168,10 @@ mod tests {
         let mut strike = event(Foot::Right, EventKind::HeelStrike, 0.3);
         strike.segment = 1;
         events.push(strike);
-        let t = check(&events, &[]);
+        let t = check(&events, &[], 100.0);
         assert_eq!(t.swings, 1);
         assert_eq!(t.median_swing_secs, None);
         assert!(!t.implausible);
+        assert_eq!(t.highest_human_rate_hz, None);
     }
 }

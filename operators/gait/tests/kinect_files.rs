@@ -229,11 +229,15 @@ fn straight_walk_distances_plausible_and_clock_flagged() {
     assert!(t.implausible, "{t:?}");
     assert!(t.swings >= 2, "{t:?}");
     assert!(t.median_swing_secs.unwrap() < 0.2, "{t:?}");
+    // The frames its swings span bound the true rate well below the assumed 30 Hz.
+    let bound = t.highest_human_rate_hz.unwrap();
+    assert!((10.0..24.0).contains(&bound), "{t:?}");
     assert!(a.quality.rejected() >= 1, "{:?}", a.quality);
 }
 
-/// The report page of the Straight walk says above its table that the time base looks wrong
-/// and marks the three rows that scale with it (stride time, cadence, speed); the simulated
+/// The report page of the Straight walk says above its table that the time base looks wrong,
+/// and how slow it must be, and marks the three rows that scale with it (stride time, cadence,
+/// speed); the simulated
 /// walker, whose legs keep a human rhythm, gets neither.
 #[test]
 fn report_warns_of_a_wrong_time_base() {
@@ -251,6 +255,7 @@ fn report_warns_of_a_wrong_time_base() {
         let page = trigait_gait::report::html(clip.name(), "none", &[], clip, &a).unwrap();
         trigait_gait::report::check_well_formed(&page).unwrap();
         assert_eq!(page.contains("class=\"warning\""), wrong);
+        assert_eq!(page.contains("Hz or less."), wrong);
         let marked = page.matches("<tr class=\"suspect\">").count();
         assert_eq!(marked, if wrong { 3 } else { 0 });
     }
