@@ -3,7 +3,8 @@
 //!
 //! Inputs are 16-bit PNGs in millimetres (512×424, 0 = no data), given as files and/or
 //! directories (their `.png` files in name order). Without `--calibration` they form one
-//! sequence from one sensor; with it, file i is one frame of `sensors[i]`. All numbers come from
+//! sequence from one sensor, in which an all-zero frame (a sensor starting up) is measured as a
+//! frame with no valid pixel and counted; with it, file i is one frame of `sensors[i]`. All numbers come from
 //! `trigait-depth`, the crate a dataflow node uses on live frames; `--rrd` logs the maps through
 //! `trigait-depth-rerun`, the same code as the `depth-metrics` node (entities
 //! `depth/sequence/...`, or `depth/sensor_NN/...` with `--calibration`).
@@ -12,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use eyre::{WrapErr as _, bail};
 use serde::Serialize;
-use trigait_depth::io::{read_depth_png, read_mask_png};
+use trigait_depth::io::{read_depth_png, read_depth_png_as_recorded, read_mask_png};
 use trigait_depth::panoptic::{FloorCheck, FloorParams, floor_check, read_panoptic_calibration};
 use trigait_depth::render::{MapLegend, render_all, with_title};
 use trigait_depth::{MetricsParams, SequenceAnalyzer, SequenceMaps, SequenceReport};
@@ -71,6 +72,9 @@ struct SequenceJson<'a> {
     mode: &'static str,
     inputs: &'a [PathBuf],
     mask: Option<&'a Path>,
+    /// Frames with no depth at all (every pixel 0), counted in the metrics as frames with no
+    /// valid pixel.
+    frames_without_depth: usize,
     #[serde(flatten)]
     report: &'a SequenceReport,
     maps: Vec<WrittenMap>,
@@ -198,12 +202,27 @@ fn sequence(
 ) -> eyre::Result<()> {
     let mut analyzer = SequenceAnalyzer::new(params, mask);
     let bar = progress(files.len(), "reading depth frames")?;
+    let mut without_depth = 0;
     for file in files {
-        let frame = read_depth_png(file).wrap_err("reading a depth frame")?;
+        // One file must have depth to be measured; in a sequence an all-zero frame is what
+        // the sensor sent (starting up, or blinded), counted as the live node counts it.
+        let frame = if files.len() == 1 {
+            read_depth_png(file)
+        } else {
+            read_depth_png_as_recorded(file)
+        }
+        .wrap_err("reading a depth frame")?;
+        without_depth += usize::from(frame.valid_count() == 0);
         analyzer.push(&frame);
         bar.inc(1);
     }
     bar.finish_and_clear();
+    if without_depth == files.len() {
+        bail!(
+            "none of the {} frames has depth (every pixel 0): nothing to measure",
+            files.len()
+        );
+    }
     let (report, maps) = analyzer
         .report_and_maps()
         .wrap_err("computing the metrics")?;
@@ -224,6 +243,7 @@ fn sequence(
             mode: "sequence",
             inputs: files,
             mask: args.mask.as_deref(),
+            frames_without_depth: without_depth,
             report: &report,
             maps: written,
         };
@@ -239,6 +259,13 @@ fn sequence(
             report.frames,
             100.0 * report.valid_share
         );
+        if without_depth > 0 {
+            out += &format!(
+                "                    {without_depth} of the frames have no depth at all (every \
+                 pixel 0, as a sensor sends while it starts up), counted as frames with no \
+                 valid pixel\n"
+            );
+        }
         table(&mut out, &report);
         out += &maps_written(std::slice::from_ref(&written), args.out.as_deref());
         crate::stdout::print(&out)
