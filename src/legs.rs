@@ -230,7 +230,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
                     Outcome::Unreadable(e) => EntryJson::Unreadable(UnreadableJson {
                         file,
                         status: "unreadable",
-                        error: e.to_string(),
+                        error: reason(file, e),
                     }),
                 })
                 .collect(),
@@ -252,7 +252,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
                     }
                 }
                 Outcome::Unreadable(e) => {
-                    text += &format!("{}: unreadable: {e}\n", file.display());
+                    text += &format!("{}: unreadable: {}\n", file.display(), reason(file, e));
                 }
             }
         }
@@ -275,6 +275,15 @@ pub fn run(args: &Args) -> eyre::Result<()> {
             first.display()
         ),
     }
+}
+
+/// Why `file` could not be read, without the file's name where the reader's error starts with
+/// it (the listing names the file already).
+fn reason(file: &Path, e: &trigait_depth::Error) -> String {
+    let message = e.to_string();
+    message
+        .strip_prefix(&format!("{}: ", file.display()))
+        .map_or_else(|| message.clone(), str::to_owned)
 }
 
 /// The sequence in one line: how many frames came out in each state, by the names the JSON

@@ -195,7 +195,11 @@ fn a_recorded_sequence_with_an_empty_frame_and_a_broken_file() {
     let text = trigait(&[z, r, b]);
     assert_eq!(text.status.code(), Some(2));
     let stdout = String::from_utf8_lossy(&text.stdout);
-    assert!(stdout.contains(&format!("{b}: unreadable: ")), "{stdout}");
+    // The reason once, the file's name once.
+    assert!(
+        stdout.contains(&format!("{b}: unreadable: not a readable PNG")),
+        "{stdout}"
+    );
     assert_eq!(
         stdout.lines().last(),
         Some("3 frames: no_data 1, tracking 1, unreadable 1"),
