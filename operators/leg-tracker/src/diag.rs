@@ -234,6 +234,11 @@ fn where_ankle_and_foot_errors_come_from() {
 /// `TRACE_SENSOR` (index in the thesis rig), `TRACE_SEED`, `TRACE_FROM` and `TRACE_TO`
 /// (seconds), and `TRACE_LANES` (set: the two-lane lap); run by hand:
 /// `TRACE_SENSOR=1 TRACE_FROM=0.7 TRACE_TO=1.1 cargo test --release -p trigait-leg-tracker --lib -- --ignored trace_frames --nocapture`.
+/// One sensor's tracking frame by frame: each chain's joints against both legs' truth, the
+/// hips' errors along up, the walk and across it, and every reported joint's error (cm, `i`
+/// inferred). `TRACE_CLIP` (a shared data file, default the walker), `TRACE_SENSOR` (index),
+/// `TRACE_SEED`, `TRACE_FROM` / `TRACE_TO` (s), `TRACE_SHIFT` (s added to every instant: the
+/// sub-frame offset a graph's capture grid has) and `TRACE_LANES` (the two-lane lap).
 #[test]
 #[ignore = "diagnostic, prints a trace"]
 fn trace_frames() {
@@ -242,6 +247,7 @@ fn trace_frames() {
     let seed: u64 = std::env::var("TRACE_SEED").map_or(7, |s| s.parse().unwrap());
     let from: f64 = std::env::var("TRACE_FROM").map_or(0.7, |s| s.parse().unwrap());
     let to: f64 = std::env::var("TRACE_TO").map_or(1.1, |s| s.parse().unwrap());
+    let shift: f64 = std::env::var("TRACE_SHIFT").map_or(0.0, |s| s.parse().unwrap());
     let clip = if which == "walker" {
         walk()
     } else {
@@ -259,7 +265,7 @@ fn trace_frames() {
     let mut renderer = super::tests::seeded_renderer(&pose, seed);
     let mut tracker = LegTracker::new(super::tests::config_for(&pose)).unwrap();
     for f in 0..((to * 30.0) as usize + 1) {
-        let t = f as f64 / 30.0;
+        let t = f as f64 / 30.0 + shift;
         let tl = t % lap.duration_secs();
         let r = renderer
             .render_pose(&BodyShape::default(), |j| lap.position_at(j, tl))
@@ -300,15 +306,54 @@ fn trace_frames() {
                 lat.dot(&(g(Joint::AnkleLeft) - g(Joint::AnkleRight))),
             );
         }
+        if let (Some(fwd), Some(floor)) = (tracker.forward, tracker.floor) {
+            let up = floor.up_in_kinect;
+            let lat = up.cross(&fwd);
+            for j in [Joint::HipLeft, Joint::HipRight] {
+                if let (Some(o), Some(gj)) = (out.joint(j), r.joint(j)) {
+                    let e = o.position_in_kinect - gj;
+                    print!(
+                        "| {j:?} up {:+.2} fwd {:+.2} lat {:+.2} ",
+                        up.dot(&e),
+                        fwd.dot(&e),
+                        lat.dot(&e)
+                    );
+                }
+            }
+            let (gl, gr) = (g(Joint::HipLeft), g(Joint::HipRight));
+            print!(
+                "| true L-R lat {:+.2} fwd {:+.2} ",
+                lat.dot(&(gl - gr)),
+                fwd.dot(&(gl - gr))
+            );
+        }
         let conf: Vec<String> = out
             .joints
             .iter()
             .map(|j| format!("{:.1}", j.confidence))
             .collect();
+        let err: Vec<String> = out
+            .joints
+            .iter()
+            .filter_map(|j| {
+                r.joint(j.joint).map(|g| {
+                    format!(
+                        "{:.0}{}",
+                        100.0 * (j.position_in_kinect - g).norm(),
+                        match j.state {
+                            TrackingState::Tracked => "",
+                            TrackingState::Inferred => "i",
+                            TrackingState::NotTracked => "n",
+                        }
+                    )
+                })
+            })
+            .collect();
         println!(
-            "| swapped {:?} conf {}",
+            "| swapped {:?} conf {} err cm {}",
             super::tests::sides_swapped(&out, &r),
-            conf.join(",")
+            conf.join(","),
+            err.join(",")
         );
     }
 }

@@ -35,6 +35,9 @@
 //!    walking direction, pitched towards the leg's visible forefoot.
 //! 4. **Sides.** Which chain is the left leg follows from the walking direction (the hips'
 //!    motion, or the feet, which point forward): left = up × forward. Decided once, then held.
+//! 5. **Report.** Walking, a hip whose thigh is seen less than the other (tracked) one's is
+//!    reported beside the other hip, across the walk at the hips' measured width, rather than
+//!    at the top of its short thigh line; the leg's track keeps its own fit.
 //!
 //! Every joint comes with a confidence (the share of its segments' bands that were seen) and
 //! an SDK-like [`TrackingState`]: tracked, inferred (occluded: kept from the model) or not
@@ -393,6 +396,10 @@ const HIP_RATIO_SPAN: f64 = 0.05;
 /// longer, and ankles hung from it sat 2–3 cm low.
 const LEG_SLACK_M: f64 = 0.04;
 
+/// Frames whose hips' width across the walk is taken ([`LegTracker::learn_hip_width`]): some
+/// seconds of walking, after which the width is held.
+const MAX_HIP_WIDTHS: usize = 150;
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -434,6 +441,9 @@ pub struct LegTracker {
     shanks: Vec<f64>,
     /// Heights at which the thigh axes crossed while walking ([`legs::thighs_cross_at`]).
     hip_crossings: Vec<f64>,
+    /// The hips' distance across the walk, measured while both thighs are seen whole
+    /// ([`Self::learn_hip_width`]).
+    hip_widths: Vec<f64>,
     /// Once learned: the stature, and the length of each leg segment (thigh = shank) less half
     /// the hip height (the leg from hip to ankle grows with the hip's height).
     held: Option<(f64, f64)>,
@@ -489,6 +499,7 @@ impl LegTracker {
             last_centroid: None,
             forward: None,
             walking: false,
+            hip_widths: Vec::new(),
             pelvis_history: Vec::new(),
             frames: 0,
             statures: Vec::new(),
@@ -727,6 +738,7 @@ impl LegTracker {
         }
         self.decide_sides(&ff, &tracks, &fits.fit);
         self.learn_hip_height(&ff, &fits.fit);
+        self.learn_hip_width(&ff, &tracks, &fits);
         self.emit(&ff, &tracks, &fits.fit, &split.1, stature, out);
         self.legs = Some(tracks);
     }
@@ -936,7 +948,7 @@ impl LegTracker {
                     state,
                 });
             };
-            emit(hip_j, t.pose.hip, thigh);
+            emit(hip_j, self.hip_out(ff, tracks, fits, chain), thigh);
             emit(knee_j, t.pose.knee, thigh.min(shank));
             emit(ankle_j, t.pose.ankle, shank);
             // The foot points forward: along the walking direction, or standing, from the
@@ -957,6 +969,60 @@ impl LegTracker {
             {
                 emit(foot_j, foot, shank);
             }
+        }
+    }
+
+    /// Chain `chain`'s hip as reported. A hip is extrapolated up its thigh's line from the
+    /// bands seen, and a thigh partly hidden behind the other leg leaves a short line whose
+    /// top may miss the hip by a hand's breadth, mostly along the view. Walking, the pelvis
+    /// holds the hips side by side across the walk (it turns only a few degrees each way), so
+    /// when the other thigh is seen better and tracked, the hip is reported beside the other
+    /// hip instead: level with it along the walk and, once measured, the hips' width across
+    /// it ([`Self::learn_hip_width`]), at its own height. Only the report changes: the leg's
+    /// track keeps its fit, as the hip of a thigh seen again must be free to move.
+    fn hip_out(
+        &self,
+        ff: &FloorFrame,
+        tracks: &[LegTrack; 2],
+        fits: &[Option<LegFit>; 2],
+        chain: usize,
+    ) -> Point3<f64> {
+        let hip = tracks[chain].pose.hip;
+        let seen = |k: usize| fits[k].map_or(0.0, |f| f.thigh_seen);
+        let (own, other) = (seen(chain), seen(1 - chain));
+        let (Some(forward), Some(left)) = (self.forward.filter(|_| self.walking), self.left) else {
+            return hip;
+        };
+        if own >= other || other < self.config.tracked_share {
+            return hip;
+        }
+        let from_other = hip - tracks[1 - chain].pose.hip;
+        let mut beside = hip - forward * forward.dot(&from_other);
+        if let Some(width) = median(&mut self.hip_widths.clone()) {
+            let lateral = ff.up.cross(&forward);
+            let side = if chain == left { 1.0 } else { -1.0 };
+            beside += lateral * (side * width - lateral.dot(&from_other));
+        }
+        beside
+    }
+
+    /// Takes the hips' distance across the walk while the person walks with both thighs seen
+    /// whole, up to [`MAX_HIP_WIDTHS`] frames.
+    fn learn_hip_width(&mut self, ff: &FloorFrame, tracks: &[LegTrack; 2], fits: &ChainFits) {
+        if self.walking
+            && self.hip_widths.len() < MAX_HIP_WIDTHS
+            && let Some(forward) = self.forward
+            && fits
+                .fit
+                .iter()
+                .all(|f| f.is_some_and(|f| f.thigh_seen >= 1.0))
+        {
+            let lateral = ff.up.cross(&forward);
+            self.hip_widths.push(
+                lateral
+                    .dot(&(tracks[0].pose.hip - tracks[1].pose.hip))
+                    .abs(),
+            );
         }
     }
 
