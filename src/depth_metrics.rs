@@ -3,8 +3,8 @@
 //!
 //! Inputs are 16-bit PNGs in millimetres (512×424, 0 = no data), given as files and/or
 //! directories (their `.png` files in name order). Without `--calibration` they form one
-//! sequence from one sensor, in which an all-zero frame (a sensor starting up) is measured as a
-//! frame with no valid pixel and counted; with it, file i is one frame of `sensors[i]`. All numbers come from
+//! sequence from one sensor, in which an all-zero frame (a sensor starting up) is measured
+//! as a frame with no valid pixel and counted; with it, file i is one frame of `sensors[i]`. All numbers come from
 //! `trigait-depth`, the crate a dataflow node uses on live frames; `--rrd` logs the maps through
 //! `trigait-depth-rerun`, the same code as the `depth-metrics` node (entities
 //! `depth/sequence/...`, or `depth/sensor_NN/...` with `--calibration`).
@@ -261,9 +261,9 @@ fn sequence(
         );
         if without_depth > 0 {
             out += &format!(
-                "                    {without_depth} of the frames have no depth at all (every \
-                 pixel 0, as a sensor sends while it starts up), counted as frames with no \
-                 valid pixel\n"
+                "                    frames with no depth at all (every pixel 0, as a sensor \
+                 sends while it starts up): {without_depth}, counted as frames with no valid \
+                 pixel\n"
             );
         }
         table(&mut out, &report);

@@ -283,7 +283,8 @@ fn reason(file: &Path, e: &trigait_depth::Error) -> String {
     let message = e.to_string();
     message
         .strip_prefix(&format!("{}: ", file.display()))
-        .map_or_else(|| message.clone(), str::to_owned)
+        .map(str::to_owned)
+        .unwrap_or(message)
 }
 
 /// The sequence in one line: how many frames came out in each state, by the names the JSON

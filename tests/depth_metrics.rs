@@ -156,18 +156,29 @@ fn bad_input_is_a_clear_error() {
 
 /// A recorded sequence may start with frames of all zeros (a sensor starting up): they are
 /// measured as what they are, frames with no valid pixel, counted and said, so the real frame
-/// after one of them gives the same per-frame figures at half the valid share. A single empty
-/// frame, or a sequence of nothing but, is an error.
+/// after one of them comes out at half its valid share, with the single-frame metrics taken
+/// from it as without the empty one. A single empty frame, or a sequence of nothing but, is an
+/// error.
 #[test]
 fn an_empty_frame_in_a_sequence_is_counted() {
+    let dir = scratch("empty-frame");
+    let zero = dir.join("starting-up.png");
+    trigait_depth::io::write_depth_png(&zero, &trigait_depth::DepthFrame::zeros()).unwrap();
+    let zero = zero.to_str().unwrap();
+    for (args, needle) in [
+        (vec![zero], "every pixel is 0"),
+        (vec![zero, zero], "none of the 2 frames has depth"),
+    ] {
+        let out = trigait(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
     let Some(depth) = trigait_test_data::shared_file("kinect-v2-depth-person/004378_depth.png")
     else {
         return;
     };
-    let dir = scratch("empty-frame");
-    let zero = dir.join("starting-up.png");
-    trigait_depth::io::write_depth_png(&zero, &trigait_depth::DepthFrame::zeros()).unwrap();
-    let (zero, depth) = (zero.to_str().unwrap(), depth.to_str().unwrap());
+    let depth = depth.to_str().unwrap();
     let json = |args: &[&str]| -> serde_json::Value {
         let out = trigait(&[args, &["--json"]].concat());
         let err = String::from_utf8_lossy(&out.stderr);
@@ -183,20 +194,15 @@ fn an_empty_frame_in_a_sequence_is_counted() {
     let share = |v: &serde_json::Value| v["valid_share"].as_f64().unwrap();
     assert!(share(&alone) > 0.5, "{}", alone["valid_share"]);
     assert!((share(&after) - share(&alone) / 2.0).abs() < 1e-12);
+    assert_eq!(after["resolution"], alone["resolution"]);
+    assert_eq!(after["edge_noise"], alone["edge_noise"]);
     let text = trigait(&[zero, depth]);
     let stdout = String::from_utf8_lossy(&text.stdout);
     assert!(text.status.success(), "{stdout}");
     assert!(
-        stdout.contains("1 of the frames have no depth at all"),
+        stdout.contains(
+            "frames with no depth at all (every pixel 0, as a sensor sends while it starts up): 1"
+        ),
         "{stdout}"
     );
-    for (args, needle) in [
-        (vec![zero], "every pixel is 0"),
-        (vec![zero, zero], "none of the 2 frames has depth"),
-    ] {
-        let out = trigait(&args);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
-        assert!(err.contains(needle), "{args:?}: {err}");
-    }
 }

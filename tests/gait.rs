@@ -459,7 +459,7 @@ fn an_untimed_log_gets_its_clock_checked_and_given() {
     assert!(bound < 30.0, "{}", assumed["timing"]);
     assert!(
         stdout.contains(&format!(
-            "human only if it was logged at about {bound:.0} Hz or less"
+            "rhythm is human only if it was logged at about {bound:.0} Hz or less"
         )),
         "{stdout}"
     );

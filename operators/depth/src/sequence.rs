@@ -3,9 +3,10 @@
 //! [`SequenceAnalyzer`] is what a dataflow node or the CLI holds: `push` each frame as it
 //! arrives (cheap per-pixel accumulation), `report` whenever a result is wanted. Accuracy (§3.1)
 //! and entropy (§3.3) use every frame; resolution (§3.2) and edge noise (§3.4) are single-frame
-//! measurements in the thesis and are evaluated on every `frame_metric_stride`-th frame (frame
-//! 0, then one per entropy window by default) and merged; structural noise (§3.5) is measured on
-//! the mean frame, where the temporal noise has averaged out.
+//! measurements in the thesis and are evaluated on every `frame_metric_stride`-th frame with
+//! depth (the first, then one per entropy window by default; a frame of all zeros, as a sensor
+//! sends while it starts up, has nothing to measure) and merged; structural noise (§3.5) is
+//! measured on the mean frame, where the temporal noise has averaged out.
 
 use crate::accuracy::{
     AccuracyMap, AccuracyParams, AccuracyReport, PixelStats, accuracy_against, cone_mask,
@@ -109,6 +110,8 @@ pub struct SequenceAnalyzer {
     window: Vec<u16>,
     buffered: usize,
     frames: usize,
+    /// Frames with at least one valid pixel, which the single-frame metrics' stride counts.
+    frames_with_depth: usize,
 }
 
 impl SequenceAnalyzer {
@@ -131,6 +134,7 @@ impl SequenceAnalyzer {
             last_edge: None,
             buffered: 0,
             frames: 0,
+            frames_with_depth: 0,
             params,
         }
     }
@@ -144,6 +148,7 @@ impl SequenceAnalyzer {
         self.last_edge = None;
         self.buffered = 0;
         self.frames = 0;
+        self.frames_with_depth = 0;
     }
 
     /// Frames pushed so far.
@@ -154,9 +159,11 @@ impl SequenceAnalyzer {
 
     /// Adds one frame.
     pub fn push(&mut self, frame: &DepthFrame) {
-        if self
-            .frames
-            .is_multiple_of(self.params.frame_metric_stride.max(1))
+        let has_depth = frame.valid_count() > 0;
+        if has_depth
+            && self
+                .frames_with_depth
+                .is_multiple_of(self.params.frame_metric_stride.max(1))
         {
             self.resolution.push(frame);
             let (e, widths, classes) = edge_noise(frame, self.mask.as_ref(), &self.params.edge);
@@ -173,6 +180,7 @@ impl SequenceAnalyzer {
             .copy_from_slice(frame.as_mm());
         self.buffered += 1;
         self.frames += 1;
+        self.frames_with_depth += usize::from(has_depth);
         if self.buffered * PIXELS == self.window.len() {
             self.entropy
                 .push_window_with_stats(&self.window, Some(&mut self.stats));

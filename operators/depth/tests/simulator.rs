@@ -263,3 +263,42 @@ fn fitted_target_plane() {
     // Differences of two N(0, 1) draws quantised to 1 mm: entropy ≈ 2.5 bits, less with 29 samples.
     assert!(h.mean > 1.5 && h.mean < 3.0, "{h:?}");
 }
+
+/// A sequence that starts with frames of all zeros (a sensor starting up): the single-frame
+/// metrics are taken from the first frame with depth, so the edge noise and the resolution come
+/// out as they do for the same frames without the empty ones in front, and the empty frames
+/// count in the sequence's frames and its valid share.
+#[test]
+fn empty_frames_in_front_leave_the_single_frame_metrics_alone() {
+    let sim = SimParams {
+        noise_sd_mm: 1.0,
+        edge_dropout_px: 2.0,
+        seed: 5,
+        ..SimParams::default()
+    };
+    let frames: Vec<_> = {
+        let mut sim = Simulator::new(&objects_scene(), sim).unwrap();
+        (0..3).map(|_| sim.next_frame()).collect()
+    };
+    let report = |empty: usize| {
+        let mut analyzer = SequenceAnalyzer::new(MetricsParams::default(), None);
+        for _ in 0..empty {
+            analyzer.push(&trigait_depth::DepthFrame::zeros());
+        }
+        for f in &frames {
+            analyzer.push(f);
+        }
+        analyzer.report().unwrap()
+    };
+    let (plain, after) = (report(0), report(2));
+    assert_eq!(after.frames, plain.frames + 2);
+    assert!((after.valid_share - plain.valid_share * 3.0 / 5.0).abs() < 1e-12);
+    assert_eq!(after.edge_noise.frames, 1);
+    assert_eq!(after.edge_noise, plain.edge_noise);
+    assert_eq!(after.resolution, plain.resolution);
+    assert!(
+        plain.edge_noise.affected_share > 0.95,
+        "{:?}",
+        plain.edge_noise
+    );
+}

@@ -67,7 +67,7 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
             crate::timing::MIN_HUMAN_SWING_SECS,
             crate::timing::MIN_HUMAN_STEP_SECS,
             human_rate(&a.timing).map_or_else(String::new, |hz| format!(
-                "its swings and steps are human only if it was logged at about {hz:.0} Hz or less "
+                "its rhythm is human only if it was logged at about {hz:.0} Hz or less "
             )),
         ));
     }
@@ -126,12 +126,14 @@ fn escape(text: &str) -> String {
     out
 }
 
-/// A duration to the hundredth of a second, or a dash.
-/// The bound on the true rate of a clip whose rhythm is not human at its stated rate.
+/// The bound on the true rate of a clip whose rhythm is not human at its stated rate (none
+/// below 1 Hz, which no frame rate is).
 fn human_rate(t: &crate::Timing) -> Option<f64> {
-    t.highest_human_rate_hz.filter(|_| t.implausible)
+    t.highest_human_rate_hz
+        .filter(|hz| t.implausible && *hz >= 1.0)
 }
 
+/// A duration to the hundredth of a second, or a dash.
 fn seconds(v: Option<f64>) -> String {
     v.map_or_else(|| "-".to_owned(), |s| format!("{s:.2} s"))
 }
@@ -206,8 +208,7 @@ pub fn html(
             seconds(a.timing.median_swing_secs),
             seconds(a.timing.median_step_secs),
             human_rate(&a.timing).map_or_else(String::new, |hz| format!(
-                "Its swings and steps are human only if the file was logged at about {hz:.0} Hz \
-                 or less."
+                "Its rhythm is human only if the file was logged at about {hz:.0} Hz or less."
             )),
         );
     }

@@ -157,6 +157,35 @@ mod tests {
         assert!((fast_bound - bound / 3.0).abs() < 1e-9, "{fast:?}");
     }
 
+    /// With both medians, the bound is the tighter one: swings of 0.44 s allow 176 Hz at 100
+    /// Hz, steps of 0.12 s only 80 Hz, and the steps alone make the clip implausible.
+    #[test]
+    fn the_tighter_median_bounds_the_rate() {
+        let mut events = Vec::new();
+        for k in 0..3 {
+            let t = f64::from(k) * 1.1;
+            events.push(event(Foot::Left, EventKind::ToeOff, t));
+            events.push(event(Foot::Left, EventKind::HeelStrike, t + 0.44));
+        }
+        let step = |start_secs: f64| crate::Step {
+            foot: Foot::Left,
+            segment: 0,
+            start_secs,
+            end_secs: start_secs + 0.12,
+            step_time_secs: 0.12,
+            cadence_steps_per_min: 500.0,
+            step_length_m: None,
+            step_width_m: None,
+        };
+        let t = check(&events, &[step(0.0), step(0.5), step(1.0)], 100.0);
+        assert!(t.implausible, "{t:?}");
+        let bound = t.highest_human_rate_hz.unwrap();
+        assert!(
+            (bound - 100.0 * 0.12 / MIN_HUMAN_STEP_SECS).abs() < 1e-9,
+            "{t:?}"
+        );
+    }
+
     /// One swing is too little to judge; swings across segments are not swings.
     #[test]
     fn too_few_swings_are_not_judged() {

@@ -236,9 +236,8 @@ fn straight_walk_distances_plausible_and_clock_flagged() {
 }
 
 /// The report page of the Straight walk says above its table that the time base looks wrong,
-/// and how slow it must be, and marks the three rows that scale with it (stride time, cadence,
-/// speed); the simulated
-/// walker, whose legs keep a human rhythm, gets neither.
+/// and how slow it must be, and marks the three rows that scale with it (stride time,
+/// cadence, speed); the simulated walker, whose legs keep a human rhythm, gets neither.
 #[test]
 fn report_warns_of_a_wrong_time_base() {
     let Some(path) = trigait_test_data::shared_file(STRAIGHT) else {

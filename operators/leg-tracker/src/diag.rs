@@ -229,16 +229,14 @@ fn where_ankle_and_foot_errors_come_from() {
 }
 
 /// Frame by frame, how far each chain's hip, knee and ankle lie from the left and the right
-/// truth, the frames the chain has coasted, the sides and whether the frame came out swapped:
-/// where a swap comes from. Chosen by `TRACE_CLIP` (`walker` or a shared mocap file),
-/// `TRACE_SENSOR` (index in the thesis rig), `TRACE_SEED`, `TRACE_FROM` and `TRACE_TO`
-/// (seconds), and `TRACE_LANES` (set: the two-lane lap); run by hand:
+/// truth, the frames the chain has coasted, the sides, whether the frame came out swapped
+/// (where a swap comes from), the reported hips' errors along up, the walk and across it, and
+/// every reported joint's error (cm, `i` inferred). Chosen by `TRACE_CLIP` (`walker` or a
+/// shared mocap file), `TRACE_SENSOR` (index in the thesis rig), `TRACE_SEED`, `TRACE_FROM`
+/// and `TRACE_TO` (seconds), `TRACE_SHIFT` (seconds added to every instant, so the trace runs
+/// from `TRACE_SHIFT` to `TRACE_TO` plus it: the sub-frame offset a graph's capture grid has)
+/// and `TRACE_LANES` (set: the two-lane lap); run by hand:
 /// `TRACE_SENSOR=1 TRACE_FROM=0.7 TRACE_TO=1.1 cargo test --release -p trigait-leg-tracker --lib -- --ignored trace_frames --nocapture`.
-/// One sensor's tracking frame by frame: each chain's joints against both legs' truth, the
-/// hips' errors along up, the walk and across it, and every reported joint's error (cm, `i`
-/// inferred). `TRACE_CLIP` (a shared data file, default the walker), `TRACE_SENSOR` (index),
-/// `TRACE_SEED`, `TRACE_FROM` / `TRACE_TO` (s), `TRACE_SHIFT` (s added to every instant: the
-/// sub-frame offset a graph's capture grid has) and `TRACE_LANES` (the two-lane lap).
 #[test]
 #[ignore = "diagnostic, prints a trace"]
 fn trace_frames() {

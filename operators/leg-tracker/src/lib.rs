@@ -34,10 +34,12 @@
 //!    (second metatarsal head) is an anthropometric distance ahead of the ankle along the
 //!    walking direction, pitched towards the leg's visible forefoot.
 //! 4. **Sides.** Which chain is the left leg follows from the walking direction (the hips'
-//!    motion, or the feet, which point forward): left = up × forward. Decided once, then held.
+//!    motion, or the feet, which point forward): left = up × forward. Re-decided from two seen
+//!    hips whenever the person walks; for someone standing, from the feet, once.
 //! 5. **Report.** Walking, a hip whose thigh is seen less than the other (tracked) one's is
 //!    reported beside the other hip, across the walk at the hips' measured width, rather than
-//!    at the top of its short thigh line; the leg's track keeps its own fit.
+//!    at the top of its short thigh line; the leg's track keeps its own fit, and the hip its
+//!    confidence and state (the share of its thigh seen).
 //!
 //! Every joint comes with a confidence (the share of its segments' bands that were seen) and
 //! an SDK-like [`TrackingState`]: tracked, inferred (occluded: kept from the model) or not
@@ -399,6 +401,9 @@ const LEG_SLACK_M: f64 = 0.04;
 /// Frames whose hips' width across the walk is taken ([`LegTracker::learn_hip_width`]): some
 /// seconds of walking, after which the width is held.
 const MAX_HIP_WIDTHS: usize = 150;
+/// Frames of it before the width is used: half a second of walking with both thighs seen, so
+/// that one poor fit at the start does not set it (as [`MIN_HIP_CROSSINGS`] for the height).
+const MIN_HIP_WIDTHS: usize = 15;
 
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
@@ -442,7 +447,8 @@ pub struct LegTracker {
     /// Heights at which the thigh axes crossed while walking ([`legs::thighs_cross_at`]).
     hip_crossings: Vec<f64>,
     /// The hips' distance across the walk, measured while both thighs are seen whole
-    /// ([`Self::learn_hip_width`]).
+    /// ([`Self::learn_hip_width`]). A measure of the body, kept when the person is lost, as
+    /// the stature and the lengths are.
     hip_widths: Vec<f64>,
     /// Once learned: the stature, and the length of each leg segment (thigh = shank) less half
     /// the hip height (the leg from hip to ankle grows with the hip's height).
@@ -978,8 +984,10 @@ impl LegTracker {
     /// holds the hips side by side across the walk (it turns only a few degrees each way), so
     /// when the other thigh is seen better and tracked, the hip is reported beside the other
     /// hip instead: level with it along the walk and, once measured, the hips' width across
-    /// it ([`Self::learn_hip_width`]), at its own height. Only the report changes: the leg's
-    /// track keeps its fit, as the hip of a thigh seen again must be free to move.
+    /// it ([`Self::learn_hip_width`], once [`MIN_HIP_WIDTHS`] frames measured it), at its own
+    /// height. Only the position changes: the leg's track keeps its fit, as the hip of a thigh
+    /// seen again must be free to move, and the hip keeps the confidence and state its thigh's
+    /// seen share gives it.
     fn hip_out(
         &self,
         ff: &FloorFrame,
@@ -998,7 +1006,9 @@ impl LegTracker {
         }
         let from_other = hip - tracks[1 - chain].pose.hip;
         let mut beside = hip - forward * forward.dot(&from_other);
-        if let Some(width) = median(&mut self.hip_widths.clone()) {
+        if self.hip_widths.len() >= MIN_HIP_WIDTHS
+            && let Some(width) = median(&mut self.hip_widths.clone())
+        {
             let lateral = ff.up.cross(&forward);
             let side = if chain == left { 1.0 } else { -1.0 };
             beside += lateral * (side * width - lateral.dot(&from_other));
