@@ -202,7 +202,6 @@ fn sequence(
 ) -> eyre::Result<()> {
     let mut analyzer = SequenceAnalyzer::new(params, mask);
     let bar = progress(files.len(), "reading depth frames")?;
-    let mut without_depth = 0;
     for file in files {
         // One file must have depth to be measured; in a sequence an all-zero frame is what
         // the sensor sent (starting up, or blinded), counted as the live node counts it.
@@ -212,12 +211,12 @@ fn sequence(
             read_depth_png_as_recorded(file)
         }
         .wrap_err("reading a depth frame")?;
-        without_depth += usize::from(frame.valid_count() == 0);
         analyzer.push(&frame);
         bar.inc(1);
     }
     bar.finish_and_clear();
-    if without_depth == files.len() {
+    let without_depth = analyzer.frames() - analyzer.frames_with_depth();
+    if analyzer.frames_with_depth() == 0 {
         bail!(
             "none of the {} frames has depth (every pixel 0): nothing to measure",
             files.len()

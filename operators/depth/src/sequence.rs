@@ -157,6 +157,13 @@ impl SequenceAnalyzer {
         self.frames
     }
 
+    /// Frames pushed so far with at least one valid pixel (the rest are all zeros, as a sensor
+    /// sends while it starts up).
+    #[must_use]
+    pub fn frames_with_depth(&self) -> usize {
+        self.frames_with_depth
+    }
+
     /// Adds one frame.
     pub fn push(&mut self, frame: &DepthFrame) {
         let has_depth = frame.valid_count() > 0;
