@@ -230,12 +230,14 @@ fn where_ankle_and_foot_errors_come_from() {
 
 /// Frame by frame, how far each chain's hip, knee and ankle lie from the left and the right
 /// truth, the frames the chain has coasted, the sides, whether the frame came out swapped
-/// (where a swap comes from), the reported hips' errors along up, the walk and across it, and
-/// every reported joint's error (cm, `i` inferred). Chosen by `TRACE_CLIP` (`walker` or a
+/// (where a swap comes from), the reported hips' errors along up, the walk and across it, the
+/// segment lengths and hip height in use, and every reported joint's error (cm, `i` inferred). Chosen by `TRACE_CLIP` (`walker` or a
 /// shared mocap file), `TRACE_SENSOR` (index in the thesis rig), `TRACE_SEED`, `TRACE_FROM`
 /// and `TRACE_TO` (seconds), `TRACE_SHIFT` (seconds added to every instant, so the trace runs
 /// from `TRACE_SHIFT` to `TRACE_TO` plus it: the sub-frame offset a graph's capture grid has)
-/// and `TRACE_LANES` (set: the two-lane lap); run by hand:
+/// and `TRACE_LANES` (set: the two-lane lap); with `TRACE_PNG` set to a directory, every
+/// rendered frame from the start is written there as a depth PNG, to be looked at with
+/// `trigait legs DIR --rig thesis --sensor ID --mirrored false --out OUT`; run by hand:
 /// `TRACE_SENSOR=1 TRACE_FROM=0.7 TRACE_TO=1.1 cargo test --release -p trigait-leg-tracker --lib -- --ignored trace_frames --nocapture`.
 #[test]
 #[ignore = "diagnostic, prints a trace"]
@@ -262,6 +264,9 @@ fn trace_frames() {
     let pose = rig.sensors[k].world_from_kinect;
     let mut renderer = super::tests::seeded_renderer(&pose, seed);
     let mut tracker = LegTracker::new(super::tests::config_for(&pose)).unwrap();
+    let png_dir = std::env::var("TRACE_PNG")
+        .ok()
+        .map(std::path::PathBuf::from);
     for f in 0..((to * 30.0) as usize + 1) {
         let t = f as f64 / 30.0 + shift;
         let tl = t % lap.duration_secs();
@@ -269,6 +274,10 @@ fn trace_frames() {
             .render_pose(&BodyShape::default(), |j| lap.position_at(j, tl))
             .unwrap_or_else(|_| renderer.render_bodies(&[], Vec::new()));
         let out = tracker.track(&r.depth);
+        if let Some(dir) = &png_dir {
+            let path = dir.join(format!("{f:04}_{t:.3}.png"));
+            trigait_depth::io::write_depth_png(&path, &r.depth).unwrap();
+        }
         if t < from || r.joints_in_kinect.is_empty() {
             continue;
         }
@@ -348,7 +357,9 @@ fn trace_frames() {
             })
             .collect();
         println!(
-            "| swapped {:?} conf {} err cm {}",
+            "| len {:?} hiph {:?} | swapped {:?} conf {} err cm {}",
+            out.segment_lengths_m,
+            out.hip_height_m,
             super::tests::sides_swapped(&out, &r),
             conf.join(","),
             err.join(",")

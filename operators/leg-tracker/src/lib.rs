@@ -157,7 +157,8 @@ pub struct SegmentParams {
     pub jump_m: f64,
     /// See [`SegmentParams::jump_m`].
     pub jump_per_m: f64,
-    /// Smallest component kept, pixels.
+    /// Smallest component kept, pixels (far from the sensor a smaller piece of a lower leg's
+    /// area is kept as well, to be taken in as a limb the person's own legs cut off).
     pub min_pixels: usize,
     /// A person's lowest point is below this, metres (feet may be lifted in swing).
     pub max_foot_height_m: f64,

@@ -234,7 +234,9 @@ pub(crate) fn components(
     let min_pixels = params.min_pixels;
     let mut comps: Vec<Component> = accs
         .into_iter()
-        .filter(|(_, a)| a.n >= min_pixels)
+        .filter(|(_, a)| {
+            a.n >= min_pixels || a.n >= SMALL_LIMB_MIN_PIXELS && a.area >= SMALL_LIMB_MIN_AREA_M2
+        })
         .map(|(label, a)| Component {
             label,
             pixels: a.n,
@@ -317,6 +319,16 @@ pub(crate) fn too_close(
     })
 }
 
+/// A component of fewer than `min_pixels` is still kept when it covers at least this area, m²
+/// (a shoe and the lowest centimetres of a shank seen from the side, about 0.25 m × 0.06 m).
+/// The pixel count that leaves out sensor specks also leaves out a lower leg seen past the
+/// other leg far from the sensor: at 3.7 m a shank and foot of 0.019 m² are 183 pixels. Such a
+/// piece can only be taken in as one of [`cut_off_limbs`] (a person is larger), and nearer
+/// than 3 m (where 0.014 m² is 200 pixels) nothing changes.
+const SMALL_LIMB_MIN_AREA_M2: f64 = 0.014;
+/// ... and at least this many pixels (0.014 m² is 50 pixels at 6.1 m).
+const SMALL_LIMB_MIN_PIXELS: usize = 50;
+
 /// A cut-off limb stays below this share of the person's top height (the knee is at 0.285 H,
 /// Winter 2009; a piece may hold the lower thigh too).
 const LIMB_TOP_SHARE: f64 = 0.45;
@@ -345,7 +357,7 @@ const LEG_TOUCH_PX: usize = 4;
 /// A leg seen past the other leg may show its lower part only, its knee hidden behind the
 /// near leg: the depth jump at the near leg's edge then separates it from the person's
 /// component, and the person's mask loses a shank and foot. Such a piece (of at least
-/// `min_pixels`, as every component) is not person-like itself, stands on the floor, stays
+/// `min_pixels`, or [`SMALL_LIMB_MIN_AREA_M2`] far from the sensor) is not person-like itself, stands on the floor, stays
 /// below [`LIMB_TOP_SHARE`] of the person's height and reaches above [`LIMB_MIN_TOP_M`], is
 /// smaller than [`MAX_LIMB_AREA_M2`], has its centroid within `max_person_radius_m` of the
 /// person's (horizontally), and touches the person's pixels in the image where it lies behind
