@@ -37,8 +37,8 @@ fn rms(v: &[f64]) -> f64 {
 /// were kept as limbs: 0.062 m in all, 0.19 m after the turns, 0.0295 / 0.0277 m elsewhere
 /// (the lap's instant spin, which no body makes, came out worse; on the two-lane lap the depth
 /// graph walks, the trackers' ankles came out better). Pinned: robust no worse than plain away
-/// from the turns, hips and knees ≤ 6 cm, ankles ≤ 12 cm, feet ≤ 10 cm, all ≤ 0.075 m, away
-/// from the turns ≤ 0.045 m.
+/// from the turns, hips and knees ≤ 6 cm, ankles ≤ 12 cm, feet ≤ 10 cm (each fusion), robust
+/// ≤ 0.075 m in all, away from the turns ≤ 0.045 m (each).
 #[test]
 fn tracked_depth_fused_from_all_three_sensors() {
     let rig = Rig::builtin("thesis").unwrap();

@@ -285,9 +285,11 @@ impl Component {
             && self.person_sized(params)
     }
 
-    /// Whether it is as wide and as large as a person.
+    /// Whether it is as wide and as large as a person (and not one of the small pieces kept
+    /// only as possible limbs, [`SMALL_LIMB_MIN_AREA_M2`]).
     fn person_sized(&self, params: &crate::SegmentParams) -> bool {
-        self.radius_m < params.max_person_radius_m
+        self.pixels >= params.min_pixels
+            && self.radius_m < params.max_person_radius_m
             && (params.min_person_area_m2..params.max_person_area_m2).contains(&self.area_m2)
     }
 }
@@ -323,8 +325,9 @@ pub(crate) fn too_close(
 /// (a shoe and the lowest centimetres of a shank seen from the side, about 0.25 m × 0.06 m).
 /// The pixel count that leaves out sensor specks also leaves out a lower leg seen past the
 /// other leg far from the sensor: at 3.7 m a shank and foot of 0.019 m² are 183 pixels. Such a
-/// piece can only be taken in as one of [`cut_off_limbs`] (a person is larger), and nearer
-/// than 3 m (where 0.014 m² is 200 pixels) nothing changes.
+/// piece can only be taken in as one of [`cut_off_limbs`]: it is never person-sized (nor
+/// someone too close), and nearer than about 3 m (where 0.014 m² is 200 pixels) nothing
+/// changes.
 const SMALL_LIMB_MIN_AREA_M2: f64 = 0.014;
 /// ... and at least this many pixels (0.014 m² is 50 pixels at 6.1 m).
 const SMALL_LIMB_MIN_PIXELS: usize = 50;
@@ -357,8 +360,8 @@ const LEG_TOUCH_PX: usize = 4;
 /// A leg seen past the other leg may show its lower part only, its knee hidden behind the
 /// near leg: the depth jump at the near leg's edge then separates it from the person's
 /// component, and the person's mask loses a shank and foot. Such a piece (of at least
-/// `min_pixels`, or [`SMALL_LIMB_MIN_AREA_M2`] far from the sensor) is not person-like itself, stands on the floor, stays
-/// below [`LIMB_TOP_SHARE`] of the person's height and reaches above [`LIMB_MIN_TOP_M`], is
+/// `min_pixels`, or [`SMALL_LIMB_MIN_AREA_M2`] far from the sensor, for this case and the
+/// next) is not person-like itself, stands on the floor, stays below [`LIMB_TOP_SHARE`] of the person's height and reaches above [`LIMB_MIN_TOP_M`], is
 /// smaller than [`MAX_LIMB_AREA_M2`], has its centroid within `max_person_radius_m` of the
 /// person's (horizontally), and touches the person's pixels in the image where it lies behind
 /// them (the person hides its connection).

@@ -80,7 +80,8 @@ struct Score {
     medians: [f64; 3],
     /// Their root-mean-square error, metres.
     rms: [f64; 3],
-    /// The same leaving out the 0.35 s after a spun lap's instant turn, which no body makes.
+    /// The same leaving out, on a spun lap, the 0.35 s after each instant turn (which no body
+    /// makes) and the lap's first 0.35 s; on a two-lane lap, the same as `rms`.
     rms_away: [f64; 3],
     /// Median error of the feet and their median height error (tracker − truth), metres.
     foot: (f64, f64),
