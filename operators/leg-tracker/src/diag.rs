@@ -231,8 +231,9 @@ fn where_ankle_and_foot_errors_come_from() {
 /// Frame by frame, how far each chain's hip, knee and ankle lie from the left and the right
 /// truth, the frames the chain has coasted, the sides, whether the frame came out swapped
 /// (where a swap comes from), the reported hips' errors along up, the walk and across it, the
-/// segment lengths and hip height in use, and every reported joint's error (cm, `i` inferred). Chosen by `TRACE_CLIP` (`walker` or a
-/// shared mocap file), `TRACE_SENSOR` (index in the thesis rig), `TRACE_SEED`, `TRACE_FROM`
+/// segment lengths and hip height in use, and every reported joint's error (cm, `i`
+/// inferred). Chosen by `TRACE_CLIP` (`walker` or a shared mocap file), `TRACE_SENSOR` (index
+/// in the thesis rig), `TRACE_SEED`, `TRACE_FROM`
 /// and `TRACE_TO` (seconds), `TRACE_SHIFT` (seconds added to every instant, so the trace runs
 /// from `TRACE_SHIFT` to `TRACE_TO` plus it: the sub-frame offset a graph's capture grid has)
 /// and `TRACE_LANES` (set: the two-lane lap); with `TRACE_PNG` set to a directory, every

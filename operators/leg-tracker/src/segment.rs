@@ -357,24 +357,24 @@ const LEG_TOUCH_PX: usize = 4;
 
 /// Labels of the components that are the `person`'s limbs cut off from it by a depth jump.
 ///
-/// A leg seen past the other leg may show its lower part only, its knee hidden behind the
-/// near leg: the depth jump at the near leg's edge then separates it from the person's
-/// component, and the person's mask loses a shank and foot. Such a piece (of at least
-/// `min_pixels`, or [`SMALL_LIMB_MIN_AREA_M2`] far from the sensor, for this case and the
-/// next) is not person-like itself, stands on the floor, stays below [`LIMB_TOP_SHARE`] of the person's height and reaches above [`LIMB_MIN_TOP_M`], is
-/// smaller than [`MAX_LIMB_AREA_M2`], has its centroid within `max_person_radius_m` of the
-/// person's (horizontally), and touches the person's pixels in the image where it lies behind
-/// them (the person hides its connection).
+/// A leg seen past the other leg may show its lower part only, its knee hidden behind the near
+/// leg: the depth jump at the near leg's edge then separates it from the person's component,
+/// and the person's mask loses a shank and foot. Such a piece (of at least `min_pixels`, or
+/// [`SMALL_LIMB_MIN_AREA_M2`] far from the sensor, for this case and the next) is not
+/// person-like itself, stands on the floor, stays below [`LIMB_TOP_SHARE`] of the person's
+/// height and reaches above [`LIMB_MIN_TOP_M`], is smaller than [`MAX_LIMB_AREA_M2`], has its
+/// centroid within `max_person_radius_m` of the person's (horizontally), and touches the
+/// person's pixels in the image where it lies behind them (the person hides its connection).
 ///
-/// A whole leg can be cut off as well: where the other leg crosses in front of it and the
-/// step at its top (a thigh swung back stands proud of the buttock) is lined with dropped
-/// pixels. The person's mask then loses a leg, and both leg chains are fitted to the other
-/// one. Such a piece reaches above [`LEG_MIN_TOP_SHARE`] of the person's height and stays
-/// below [`LEG_MAX_TOP_SHARE`], stands on the floor or is cut by the image's edge and reaches
-/// below [`LEG_MIN_TOP_SHARE`] (near the sensor the lower edge cuts the foot off, and the piece
-/// may then look like someone partly out of view), is smaller than [`MAX_LIMB_AREA_M2`], lies within `max_person_radius_m` of
-/// the person, and comes within [`LEG_GAP_M`] in depth of the person's pixels it touches in
-/// the image.
+/// A whole leg can be cut off as well: where the other leg crosses in front of it and the step
+/// at its top (a thigh swung back stands proud of the buttock) is lined with dropped pixels.
+/// The person's mask then loses a leg, and both leg chains are fitted to the other one. Such a
+/// piece reaches above [`LEG_MIN_TOP_SHARE`] of the person's height and stays below
+/// [`LEG_MAX_TOP_SHARE`], stands on the floor or is cut by the image's edge and reaches below
+/// [`LEG_MIN_TOP_SHARE`] (near the sensor the lower edge cuts the foot off, and the piece may
+/// then look like someone partly out of view), is smaller than [`MAX_LIMB_AREA_M2`], lies
+/// within `max_person_radius_m` of the person, and comes within [`LEG_GAP_M`] in depth of the
+/// person's pixels it touches in the image.
 pub(crate) fn cut_off_limbs(
     labels: &[u32],
     cloud: &Cloud,

@@ -513,23 +513,23 @@ fn swapped_frames_over_noise_seeds() {
 /// The real Kinect v2 frame of a person in a room, against the SDK of the same instant.
 ///
 /// Measured: IoU 0.841 with the SDK's body index, whose mask also holds floor speckle that no
-/// depth segmentation should call the person (out to the image's sides): 3416 of the 3517 pixels
-/// the masks disagree on are SDK pixels within 5 cm of the floor, and over the rest of the image
-/// the IoU is 0.995 (asserted ≥ 0.98); against the SDK mask's largest 8-connected blob alone
-/// (19 884 of its 22 062 pixels; the rest are 104 specks) it is 0.933 (asserted ≥ 0.92). Joints:
-/// knees and the front ankle 5–7 cm from the SDK's, hips 15–16 cm (the SDK's hips are 8–12 cm
-/// below the stature-based hip joint centre here, at 0.45–0.47 of the stature), the rear ankle
-/// 28 cm. That foot is lifted behind in early swing (the colour image) and is the far leg's
-/// (its depth lies 15 cm beyond the near leg's); the SDK's chains cross, its right ankle is
-/// inferred and put on the floor 0.26 m from that foot, and the tracker's far chain ends on
-/// the standing foot and calls that ankle tracked, so neither has the lifted foot's ankle. The median of the
-/// six (the mean of the middle two) is 0.111 m, as `trigait legs` reports it; over the five the
-/// SDK tracked, 0.066 m (asserted ≤ 0.075 m). The goals are IoU ≥ 0.85 and a median ≤ 8 cm
-/// against the SDK's mask and skeleton as they are; this test pins the measured state (IoU ≥
-/// 0.835, median ≤ 0.12 m) so it cannot get worse unnoticed. It also prints which leg each
-/// skeleton puts nearer the sensor, joint by joint: the SDK's left hip is the far one and its
-/// left ankle the near one (its chains cross), and how far the SDK's knees move over the next
-/// two frames.
+/// depth segmentation should call the person (out to the image's sides): 3416 of the 3517
+/// pixels the masks disagree on are SDK pixels within 5 cm of the floor, and over the rest of
+/// the image the IoU is 0.995 (asserted ≥ 0.98); against the SDK mask's largest 8-connected
+/// blob alone (19 884 of its 22 062 pixels; the rest are 104 specks) it is 0.933 (asserted ≥
+/// 0.92). Joints: knees and the front ankle 5–7 cm from the SDK's, hips 15–16 cm (the SDK's
+/// hips are 8–12 cm below the stature-based hip joint centre here, at 0.45–0.47 of the
+/// stature), the rear ankle 28 cm. That foot is lifted behind in early swing (the colour image)
+/// and is the far leg's (its depth lies 15 cm beyond the near leg's); the SDK's chains cross,
+/// its right ankle is inferred and put on the floor 0.26 m from that foot, and the tracker's
+/// far chain ends on the standing foot and calls that ankle tracked, so neither has the lifted
+/// foot's ankle. The median of the six (the mean of the middle two) is 0.111 m, as `trigait
+/// legs` reports it; over the five the SDK tracked, 0.066 m (asserted ≤ 0.075 m). The goals are
+/// IoU ≥ 0.85 and a median ≤ 8 cm against the SDK's mask and skeleton as they are; this test
+/// pins the measured state (IoU ≥ 0.835, median ≤ 0.12 m) so it cannot get worse unnoticed. It
+/// also prints which leg each skeleton puts nearer the sensor, joint by joint: the SDK's left
+/// hip is the far one and its left ankle the near one (its chains cross), and how far the SDK's
+/// knees move over the next two frames.
 #[test]
 fn real_frame_against_the_sdk() {
     let (Some(depth), Some(mask), Some(skel)) = (
