@@ -4,10 +4,10 @@
 //! Inputs are 16-bit PNGs in millimetres (512×424, 0 = no data), given as files and/or
 //! directories (their `.png` files in name order). Without `--calibration` they form one
 //! sequence from one sensor, in which an all-zero frame (a sensor starting up) is measured
-//! as a frame with no valid pixel and counted; with it, file i is one frame of `sensors[i]`. All numbers come from
-//! `trigait-depth`, the crate a dataflow node uses on live frames; `--rrd` logs the maps through
-//! `trigait-depth-rerun`, the same code as the `depth-metrics` node (entities
-//! `depth/sequence/...`, or `depth/sensor_NN/...` with `--calibration`).
+//! as a frame with no valid pixel and counted; with it, file i is one frame of `sensors[i]`.
+//! All numbers come from `trigait-depth`, the crate a dataflow node uses on live frames;
+//! `--rrd` logs the maps through `trigait-depth-rerun`, the same code as the `depth-metrics`
+//! node (entities `depth/sequence/...`, or `depth/sensor_NN/...` with `--calibration`).
 
 use std::path::{Path, PathBuf};
 
