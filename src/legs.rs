@@ -349,6 +349,9 @@ fn table(file: &Path, t: &TrackedFrame, iou: Option<f64>) -> String {
     if let Some(iou) = iou {
         s += &format!(", IoU with the mask {iou:.3}");
     }
+    if t.floor_refitted {
+        s += ", floor fitted afresh (the one in use no longer matched the depth: the sensor moved, or these frames are another sensor's)";
+    }
     s.push('\n');
     for j in &t.joints {
         let p = j.position_in_kinect;

@@ -53,6 +53,8 @@ pub struct Counters {
     /// Frames sent, by the tracker's outcome (`no_data`, `no_floor`, `nobody`, `too_close`,
     /// `tracking`, `no_stature`).
     pub by_status: BTreeMap<&'static str, u64>,
+    /// Floors fitted afresh because the one in use no longer matched the depth.
+    pub floor_refits: u64,
     /// Joints sent tracked.
     pub joints_tracked: u64,
     /// Joints sent inferred.
@@ -134,6 +136,17 @@ fn log_debug(
     trigait_depth_rerun::log_legs(rec, sensor, seq, &tracked.person_mask, &joints, &chains)
 }
 
+/// What [`track_message`] made of one depth frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tracked {
+    /// The skeleton frame to send.
+    pub frame: SkeletonFrame,
+    /// The tracker's outcome.
+    pub status: Status,
+    /// Whether the tracker fitted its floor afresh (the sensor moved).
+    pub floor_refitted: bool,
+}
+
 /// Tracks one `depth_frame` of `sensor_id`: the skeleton frame to send and the outcome; with
 /// `rec`, logs what the tracker made of it.
 ///
@@ -144,7 +157,7 @@ pub fn track_message(
     sensor_id: &str,
     array: &dyn trigait_schema::Array,
     rec: Option<&RecordingStream>,
-) -> Result<(SkeletonFrame, Status), Refused> {
+) -> Result<Tracked, Refused> {
     let message =
         DepthFrameMessage::decode(array).map_err(|e| Refused::Malformed(e.to_string()))?;
     if message.sensor_id != sensor_id {
@@ -167,7 +180,11 @@ pub fn track_message(
         local_stamp_nanos: message.local_stamp_nanos,
         joints: tracked.joint_samples(),
     };
-    Ok((frame, tracked.status))
+    Ok(Tracked {
+        frame,
+        status: tracked.status,
+        floor_refitted: tracked.floor_refitted,
+    })
 }
 
 /// The tracker's camera for a frame with metadata `params`: the pinhole its source stamped on
@@ -232,7 +249,11 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                     if use_camera(&mut tracker, camera)? {
                         info!("depth camera: {camera:?}");
                     }
-                    let (frame, status) = match track_message(
+                    let Tracked {
+                        frame,
+                        status,
+                        floor_refitted,
+                    } = match track_message(
                         &mut tracker,
                         &config.sensor_id,
                         data.as_array().as_ref(),
@@ -260,6 +281,13 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                         }
                     }
                     *counters.by_status.entry(status_name(status)).or_insert(0) += 1;
+                    if floor_refitted {
+                        counters.floor_refits += 1;
+                        warn!(
+                            "{}: the floor no longer matched the depth (the sensor moved?): fitted it afresh and finding the legs again; its pose in the rig may need calibrating again",
+                            config.sensor_id
+                        );
+                    }
                     let array = SkeletonFrameMessage::from(frame)
                         .encode()
                         .context("leg-tracker: encoding a skeleton frame")?;
@@ -279,7 +307,7 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
         .map(|(s, n)| format!("{s} {n}"))
         .collect();
     info!(
-        "{} frames sent ({}), {} joints tracked, {} inferred; skipped: {} malformed, {} of another sensor, {} of the wrong size",
+        "{} frames sent ({}), {} joints tracked, {} inferred, floor fitted afresh {} times; skipped: {} malformed, {} of another sensor, {} of the wrong size",
         counters.frames_sent,
         if statuses.is_empty() {
             "none".to_owned()
@@ -288,6 +316,7 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
         },
         counters.joints_tracked,
         counters.joints_inferred,
+        counters.floor_refits,
         counters.malformed,
         counters.wrong_sensor,
         counters.wrong_size

@@ -7,7 +7,9 @@
 //! the last fit. Per frame ([`LegTracker::track`]):
 //!
 //! 1. **Floor.** From the rig (the sensor's pose, [`Floor::from_pose`]) or a RANSAC plane fit on
-//!    the lower image rows, held once found ([`segment`]).
+//!    the lower image rows, held once found ([`segment`]). A floor that stops matching the
+//!    depth (a bumped tripod: the lower rows' pixels no longer lie on it) is fitted afresh,
+//!    and the legs are found again from there.
 //! 2. **Person.** Floor pixels and pixels above head height are dropped; the rest form connected
 //!    components continuous in depth. Person-like components (standing on the floor, head
 //!    height, body-sized) are counted; the one nearest to the last position is followed, with
@@ -318,6 +320,9 @@ pub struct TrackedFrame {
     pub lengths_held: bool,
     /// The floor in use.
     pub floor: Option<Floor>,
+    /// Whether the floor was fitted afresh at this frame, because the one in use no longer
+    /// matched the depth (the sensor moved); the legs are then found again.
+    pub floor_refitted: bool,
 }
 
 impl TrackedFrame {
@@ -335,6 +340,7 @@ impl TrackedFrame {
             segment_lengths_m: None,
             lengths_held: false,
             floor,
+            floor_refitted: false,
         }
     }
 
@@ -406,6 +412,20 @@ const MAX_HIP_WIDTHS: usize = 150;
 /// that one poor fit at the start does not set it (as [`MIN_HIP_CROSSINGS`] for the height).
 const MIN_HIP_WIDTHS: usize = 15;
 
+/// The floor in use is doubted on a frame where fewer than this share of the lower image half's
+/// valid pixels lie on it, against the most it has held so far. A person close to the sensor
+/// hides some of the floor; a sensor that moved puts nearly all of it off the plane: lowered by
+/// 5 cm or tilted by 2°, the floor lies 5 cm above the plane or, 3 m out, 10 cm off it, beyond
+/// [`SegmentParams::floor_tolerance_m`], and the person merges with it.
+const FLOOR_DOUBT_SHARE: f64 = 0.5;
+/// Frames in a row the floor is doubted before a fresh one is fitted (half a second at 30 Hz);
+/// the fit is tried again after as many more while the doubt lasts.
+const FLOOR_DOUBT_FRAMES: usize = 15;
+/// A fresh floor replaces the one in use when this many times as many of the frame's lower
+/// pixels lie on it (and at least [`FLOOR_DOUBT_SHARE`] of the most the old one held): a
+/// person hiding the floor leaves the plane found again about where it was, and it is kept.
+const FLOOR_BETTER: f64 = 2.0;
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -428,6 +448,13 @@ pub struct LegTracker {
     config: TrackerConfig,
     rays: Vec<(f32, f32)>,
     floor: Option<Floor>,
+    /// The largest share of the lower image half's valid pixels that the floor in use has held
+    /// on a frame.
+    floor_support: Option<f64>,
+    /// Frames in a row on which the floor in use held under [`FLOOR_DOUBT_SHARE`] of that.
+    floor_doubted: usize,
+    /// Floors fitted afresh so far.
+    floor_refits: usize,
     legs: Option<[LegTrack; 2]>,
     /// Index of the chain that is the left leg, once decided.
     left: Option<usize>,
@@ -499,6 +526,9 @@ impl LegTracker {
         }
         Ok(Self {
             floor: config.floor,
+            floor_support: None,
+            floor_doubted: 0,
+            floor_refits: 0,
             config,
             rays,
             legs: None,
@@ -535,6 +565,13 @@ impl LegTracker {
 
     /// Tracks one frame.
     pub fn track(&mut self, frame: &DepthFrame) -> TrackedFrame {
+        let refits = self.floor_refits;
+        let mut out = self.track_frame(frame);
+        out.floor_refitted = self.floor_refits > refits;
+        out
+    }
+
+    fn track_frame(&mut self, frame: &DepthFrame) -> TrackedFrame {
         let mut cloud = segment::back_project(frame, &self.config.camera, &self.rays);
         if cloud.valid == 0 {
             self.lose();
@@ -542,6 +579,9 @@ impl LegTracker {
         }
         if self.floor.is_none() {
             self.floor = segment::fit_floor(&cloud);
+            self.floor_support = None;
+        } else if self.floor_doubted >= FLOOR_DOUBT_FRAMES {
+            self.refit_floor(&cloud);
         }
         let Some(floor) = self.floor else {
             self.lose();
@@ -554,6 +594,7 @@ impl LegTracker {
             &params,
             self.config.camera.intrinsics.fx,
         );
+        self.watch_floor(&cloud);
         let people: Vec<&Component> = comps.iter().filter(|c| c.person_like(&params)).collect();
         let chosen = match self.last_centroid {
             Some(last) => people
@@ -650,6 +691,45 @@ impl LegTracker {
         out.lengths_held = self.held.is_some();
         out.person_mask = mask;
         out
+    }
+
+    /// Weighs this frame's support for the floor in use (`cloud`'s heights are over it): the
+    /// share of the lower image half's valid pixels on it, against the most it has held.
+    fn watch_floor(&mut self, cloud: &segment::Cloud) {
+        let tolerance = self.config.segment.floor_tolerance_m as f32;
+        let Some(share) = segment::floor_share(&cloud.height, tolerance) else {
+            return;
+        };
+        let most = self.floor_support.map_or(share, |m| m.max(share));
+        self.floor_support = Some(most);
+        if share < FLOOR_DOUBT_SHARE * most {
+            self.floor_doubted += 1;
+        } else {
+            self.floor_doubted = 0;
+        }
+    }
+
+    /// Fits a fresh floor to `cloud` and takes it when the lower pixels lie on it
+    /// [`FLOOR_BETTER`] times as often as on the one in use; the sensor then moved, and the
+    /// person is found again (stature, lengths and hip height are the body's and are kept).
+    fn refit_floor(&mut self, cloud: &segment::Cloud) {
+        self.floor_doubted = 0;
+        let (Some(old), Some(new), Some(most)) =
+            (self.floor, segment::fit_floor(cloud), self.floor_support)
+        else {
+            return;
+        };
+        let tolerance = self.config.segment.floor_tolerance_m as f32;
+        let share = |f: &Floor| segment::floor_share(&segment::heights(cloud, f), tolerance);
+        if let (Some(o), Some(n)) = (share(&old), share(&new))
+            && n >= FLOOR_BETTER * o
+            && n >= FLOOR_DOUBT_SHARE * most
+        {
+            self.floor = Some(new);
+            self.floor_support = Some(n);
+            self.floor_refits += 1;
+            self.lose();
+        }
     }
 
     /// Fits the two leg chains to the person's points below the hips at `hip_h` and updates the

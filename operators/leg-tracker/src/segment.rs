@@ -120,6 +120,38 @@ pub(crate) fn fit_floor(cloud: &Cloud) -> Option<Floor> {
     best.map(|b| b.0)
 }
 
+/// Each pixel's height above `floor` (NaN: no data), as [`components`] computes them.
+pub(crate) fn heights(cloud: &Cloud, floor: &Floor) -> Vec<f32> {
+    let up = floor.up_in_kinect.cast::<f32>();
+    let h0 = floor.camera_height_m as f32;
+    cloud
+        .points
+        .iter()
+        .map(|p| {
+            if p.z > 0.0 {
+                up.dot(&p.coords) + h0
+            } else {
+                f32::NAN
+            }
+        })
+        .collect()
+}
+
+/// Valid pixels the lower image half needs for [`floor_share`] to say anything.
+const MIN_LOWER_PIXELS: usize = 1000;
+
+/// The share of the lower image half's valid pixels (of `height`, per pixel over a floor)
+/// within `tolerance` of that floor, if the half has [`MIN_LOWER_PIXELS`] valid ones.
+pub(crate) fn floor_share(height: &[f32], tolerance: f32) -> Option<f64> {
+    // Without branches, so that the loop vectorises (NaN is never within the tolerance).
+    let (mut valid, mut on) = (0_usize, 0_usize);
+    for h in height.get(PIXELS / 2..).unwrap_or_default() {
+        valid += usize::from(!h.is_nan());
+        on += usize::from(h.abs() < tolerance);
+    }
+    (valid >= MIN_LOWER_PIXELS).then(|| on as f64 / valid as f64)
+}
+
 /// Union–find over pixels.
 struct Dsu {
     parent: Vec<u32>,
