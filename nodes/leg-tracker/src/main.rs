@@ -39,6 +39,10 @@ fn main() -> eyre::Result<()> {
     run(config, node, events).map(|_| ())
 }
 
+/// Frames the tracker's floor matches the depth poorly, without a better one found, before
+/// the node says so (5 s at 30 Hz).
+const FLOOR_DOUBT_TOLD_FRAMES: usize = 150;
+
 /// Totals the node reports at the end.
 #[derive(Debug, Default, Clone, PartialEq, Eq)]
 pub struct Counters {
@@ -55,6 +59,8 @@ pub struct Counters {
     pub by_status: BTreeMap<&'static str, u64>,
     /// Floors fitted afresh because the one in use no longer matched the depth.
     pub floor_refits: u64,
+    /// Bodies learned afresh because the person found was someone else.
+    pub bodies_relearned: u64,
     /// Joints sent tracked.
     pub joints_tracked: u64,
     /// Joints sent inferred.
@@ -145,6 +151,10 @@ pub struct Tracked {
     pub status: Status,
     /// Whether the tracker fitted its floor afresh (the sensor moved).
     pub floor_refitted: bool,
+    /// Frames in a row the floor has matched the depth poorly without a better one found.
+    pub floor_doubted_frames: usize,
+    /// Whether the tracker began to learn the body afresh (someone else walked in).
+    pub body_relearned: bool,
 }
 
 /// Tracks one `depth_frame` of `sensor_id`: the skeleton frame to send and the outcome; with
@@ -184,6 +194,8 @@ pub fn track_message(
         frame,
         status: tracked.status,
         floor_refitted: tracked.floor_refitted,
+        floor_doubted_frames: tracked.floor_doubted_frames,
+        body_relearned: tracked.body_relearned,
     })
 }
 
@@ -240,6 +252,8 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
     let configured_camera = tracker.config().camera.intrinsics;
     let frame_out = DataId::from(ports::FRAME.to_owned());
     let mut counters = Counters::default();
+    // Whether the floor's current spell of doubt has been logged.
+    let mut doubt_told = false;
     while let Some(event) = events.recv() {
         trigait_node_log::warn_drops(&mut events);
         match event {
@@ -253,6 +267,8 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                         frame,
                         status,
                         floor_refitted,
+                        floor_doubted_frames,
+                        body_relearned,
                     } = match track_message(
                         &mut tracker,
                         &config.sensor_id,
@@ -281,6 +297,22 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                         }
                     }
                     *counters.by_status.entry(status_name(status)).or_insert(0) += 1;
+                    if floor_doubted_frames == 0 {
+                        doubt_told = false;
+                    } else if floor_doubted_frames >= FLOOR_DOUBT_TOLD_FRAMES && !doubt_told {
+                        doubt_told = true;
+                        warn!(
+                            "{}: the floor has matched the depth poorly for {floor_doubted_frames} frames and no better one was found: something large hides it, or the sensor moved to where too little floor is in view",
+                            config.sensor_id
+                        );
+                    }
+                    if body_relearned {
+                        counters.bodies_relearned += 1;
+                        info!(
+                            "{}: the person found is someone else (another stature): learning their stature and leg lengths afresh",
+                            config.sensor_id
+                        );
+                    }
                     if floor_refitted {
                         counters.floor_refits += 1;
                         warn!(
@@ -307,7 +339,7 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
         .map(|(s, n)| format!("{s} {n}"))
         .collect();
     info!(
-        "{} frames sent ({}), {} joints tracked, {} inferred, floor fitted afresh {} times; skipped: {} malformed, {} of another sensor, {} of the wrong size",
+        "{} frames sent ({}), {} joints tracked, {} inferred, floor fitted afresh {} times, {} other people's bodies learned; skipped: {} malformed, {} of another sensor, {} of the wrong size",
         counters.frames_sent,
         if statuses.is_empty() {
             "none".to_owned()
@@ -317,6 +349,7 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
         counters.joints_tracked,
         counters.joints_inferred,
         counters.floor_refits,
+        counters.bodies_relearned,
         counters.malformed,
         counters.wrong_sensor,
         counters.wrong_size

@@ -27,7 +27,9 @@
 //!    measures the stature and the thigh and shank lengths; then it holds them (too few
 //!    measured: halves of the standing leg from the hip height; a hip height found later
 //!    lengthens or shortens the leg by its change) and places the knee and ankle at
-//!    those distances along the fitted lines, an ankle never below the floor. Where the lower
+//!    those distances along the fitted lines, an ankle never below the floor. The body so
+//!    learned is kept through frames without anyone, unless the person found next stands more
+//!    than 6 cm taller or shorter: someone else, whose body is learned afresh. Where the lower
 //!    legs pass each other they may land on the wrong chains; the exchange that makes thigh and
 //!    shank lines meet at the knees is tried below the predicted knees and below the height
 //!    where the predicted axes cross. A hip whose thigh is not seen moves with the seen one; a
@@ -323,6 +325,13 @@ pub struct TrackedFrame {
     /// Whether the floor was fitted afresh at this frame, because the one in use no longer
     /// matched the depth (the sensor moved); the legs are then found again.
     pub floor_refitted: bool,
+    /// Frames in a row the floor in use has matched the depth poorly (under half the share of
+    /// the lower image it once held) without a better one found: something large hides it, or
+    /// the sensor moved to where too little floor is in view. 0 while it matches.
+    pub floor_doubted_frames: usize,
+    /// Whether the stature, leg lengths, hip height and width were forgotten at this frame to
+    /// be learned afresh: the person found again is someone else (their stature differs).
+    pub body_relearned: bool,
 }
 
 impl TrackedFrame {
@@ -341,6 +350,8 @@ impl TrackedFrame {
             lengths_held: false,
             floor,
             floor_refitted: false,
+            floor_doubted_frames: 0,
+            body_relearned: false,
         }
     }
 
@@ -412,19 +423,36 @@ const MAX_HIP_WIDTHS: usize = 150;
 /// that one poor fit at the start does not set it (as [`MIN_HIP_CROSSINGS`] for the height).
 const MIN_HIP_WIDTHS: usize = 15;
 
-/// The floor in use is doubted on a frame where fewer than this share of the lower image half's
-/// valid pixels lie on it, against the most it has held so far. A person close to the sensor
-/// hides some of the floor; a sensor that moved puts nearly all of it off the plane: lowered by
-/// 5 cm or tilted by 2°, the floor lies 5 cm above the plane or, 3 m out, 10 cm off it, beyond
-/// [`SegmentParams::floor_tolerance_m`], and the person merges with it.
+/// The floor in use is doubted on a frame where the share of the lower image half's valid
+/// pixels that lie on it falls under this share of the most it has held so far. One person
+/// close to a sensor hides under a third of it (rendered: 0.65 of 0.78 for a sensor a metre up
+/// looking level, someone a metre ahead; 0.73 of 1.0 for a thesis-rig sensor looking down,
+/// someone half a metre from it); a sensor that moved puts
+/// nearly all of it off the plane: lowered by 5 cm, the floor lies 5 cm above the plane, and
+/// tilted by 2°, 3 m out, 10 cm off it, beyond [`SegmentParams::floor_tolerance_m`], and the
+/// person merges with it. A floor that was poor from the start (fitted to a frame whose floor
+/// was mostly hidden) is measured against itself, and is not doubted.
 const FLOOR_DOUBT_SHARE: f64 = 0.5;
-/// Frames in a row the floor is doubted before a fresh one is fitted (half a second at 30 Hz);
-/// the fit is tried again after as many more while the doubt lasts.
+/// Frames the floor is doubted (in a row, not counting frames whose lower half has too few
+/// valid pixels to tell) before a fresh one is fitted, half a second at 30 Hz; the fit is tried
+/// again after as many more while the doubt lasts.
 const FLOOR_DOUBT_FRAMES: usize = 15;
-/// A fresh floor replaces the one in use when this many times as many of the frame's lower
-/// pixels lie on it (and at least [`FLOOR_DOUBT_SHARE`] of the most the old one held): a
-/// person hiding the floor leaves the plane found again about where it was, and it is kept.
+/// A fresh floor replaces the one in use when this many times the share of the frame's lower
+/// pixels lies on it: people hiding the floor leave the plane found again about where it was,
+/// and it is kept.
 const FLOOR_BETTER: f64 = 2.0;
+/// ... and at least this share of them: a plane any lower share lies on is no floor to track
+/// a person on (the floor fit itself asks for 2 %).
+const FLOOR_MIN_SHARE: f64 = 0.1;
+
+/// Frames with the head in view whose tops tell whether a person found again is the one the
+/// held body was learned from (a third of a second at 30 Hz).
+const STATURE_CHECK_FRAMES: usize = 10;
+/// A person found again whose median top lies further than this from the held stature is
+/// someone else, metres: the top of one walker's head bobs by about ±2.5 cm over a stride, and
+/// the median of a third of a second of it lies within about 2 cm of the stature measured
+/// over the learning frames.
+const STATURE_CHANGE_M: f64 = 0.06;
 
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
@@ -451,8 +479,11 @@ pub struct LegTracker {
     /// The largest share of the lower image half's valid pixels that the floor in use has held
     /// on a frame.
     floor_support: Option<f64>,
-    /// Frames in a row on which the floor in use held under [`FLOOR_DOUBT_SHARE`] of that.
+    /// Frames on which the floor in use held under [`FLOOR_DOUBT_SHARE`] of that, in a row
+    /// ([`FLOOR_DOUBT_FRAMES`]).
     floor_doubted: usize,
+    /// `floor_doubted` when a fresh floor was last tried.
+    floor_tried_at: usize,
     /// Floors fitted afresh so far.
     floor_refits: usize,
     legs: Option<[LegTrack; 2]>,
@@ -481,6 +512,11 @@ pub struct LegTracker {
     /// Once learned: the stature, and the length of each leg segment (thigh = shank) less half
     /// the hip height (the leg from hip to ankle grows with the hip's height).
     held: Option<(f64, f64)>,
+    /// While the body is held: the tops measured of a person found again, until there are
+    /// [`STATURE_CHECK_FRAMES`] to tell whether they are the one the body was learned from.
+    recheck: Option<Vec<f64>>,
+    /// Bodies learned afresh so far, for someone else found.
+    relearns: usize,
 }
 
 fn median(v: &mut [f64]) -> Option<f64> {
@@ -528,6 +564,7 @@ impl LegTracker {
             floor: config.floor,
             floor_support: None,
             floor_doubted: 0,
+            floor_tried_at: 0,
             floor_refits: 0,
             config,
             rays,
@@ -544,6 +581,8 @@ impl LegTracker {
             shanks: Vec::new(),
             hip_crossings: Vec::new(),
             held: None,
+            recheck: None,
+            relearns: 0,
         })
     }
 
@@ -561,13 +600,44 @@ impl LegTracker {
         self.forward = None;
         self.walking = false;
         self.pelvis_history.clear();
+        // Whoever is found next may be someone else: their stature tells.
+        if self.held.is_some() {
+            self.recheck = Some(Vec::new());
+        }
+    }
+
+    /// Takes the top of a person found again (`top`, with the head and the whole body in view)
+    /// and, once there are [`STATURE_CHECK_FRAMES`], learns the body afresh when their median
+    /// lies more than [`STATURE_CHANGE_M`] from the held stature: someone else walked in, and
+    /// the held stature, leg lengths, hip height and width were another body's.
+    fn recheck_stature(&mut self, top: f64) {
+        let (Some(tops), Some((held, _))) = (self.recheck.as_mut(), self.held) else {
+            return;
+        };
+        tops.push(top);
+        if tops.len() < STATURE_CHECK_FRAMES {
+            return;
+        }
+        let tops = self.recheck.take().unwrap_or_default();
+        if median(&mut tops.clone()).is_some_and(|m| (m - held).abs() > STATURE_CHANGE_M) {
+            self.held = None;
+            self.frames = 0;
+            self.statures = tops;
+            self.thighs.clear();
+            self.shanks.clear();
+            self.hip_crossings.clear();
+            self.hip_widths.clear();
+            self.relearns += 1;
+        }
     }
 
     /// Tracks one frame.
     pub fn track(&mut self, frame: &DepthFrame) -> TrackedFrame {
-        let refits = self.floor_refits;
+        let (refits, relearns) = (self.floor_refits, self.relearns);
         let mut out = self.track_frame(frame);
         out.floor_refitted = self.floor_refits > refits;
+        out.body_relearned = self.relearns > relearns;
+        out.floor_doubted_frames = self.floor_doubted;
         out
     }
 
@@ -580,7 +650,8 @@ impl LegTracker {
         if self.floor.is_none() {
             self.floor = segment::fit_floor(&cloud);
             self.floor_support = None;
-        } else if self.floor_doubted >= FLOOR_DOUBT_FRAMES {
+        } else if self.floor_doubted >= self.floor_tried_at + FLOOR_DOUBT_FRAMES {
+            self.floor_tried_at = self.floor_doubted;
             self.refit_floor(&cloud);
         }
         let Some(floor) = self.floor else {
@@ -646,8 +717,14 @@ impl LegTracker {
         self.frames += 1;
         // Stature: the head must be in view to measure it.
         let top_in_view = !mask[..WIDTH * 2].iter().any(|&m| m);
-        if self.held.is_none() && top_in_view && person.height_range_m.1 > 1.0 {
-            self.statures.push(person.height_range_m.1);
+        if top_in_view && person.height_range_m.1 > 1.0 {
+            if self.held.is_none() {
+                self.statures.push(person.height_range_m.1);
+            } else if !person.at_border {
+                // Whole in view: someone walking in past the image's side edge shows a
+                // shoulder's height before the head.
+                self.recheck_stature(person.height_range_m.1);
+            }
         }
         let stature = match self.held {
             Some((s, _)) => Some(s),
@@ -706,27 +783,28 @@ impl LegTracker {
             self.floor_doubted += 1;
         } else {
             self.floor_doubted = 0;
+            self.floor_tried_at = 0;
         }
     }
 
-    /// Fits a fresh floor to `cloud` and takes it when the lower pixels lie on it
-    /// [`FLOOR_BETTER`] times as often as on the one in use; the sensor then moved, and the
-    /// person is found again (stature, lengths and hip height are the body's and are kept).
+    /// Fits a fresh floor to `cloud` and takes it when [`FLOOR_BETTER`] times the share of
+    /// the lower pixels lies on it as on the one in use, and at least [`FLOOR_MIN_SHARE`]; the
+    /// sensor then moved, and the person is found again (stature, lengths and hip height are
+    /// the body's and are kept).
     fn refit_floor(&mut self, cloud: &segment::Cloud) {
-        self.floor_doubted = 0;
-        let (Some(old), Some(new), Some(most)) =
-            (self.floor, segment::fit_floor(cloud), self.floor_support)
-        else {
+        let (Some(old), Some(new)) = (self.floor, segment::fit_floor(cloud)) else {
             return;
         };
         let tolerance = self.config.segment.floor_tolerance_m as f32;
         let share = |f: &Floor| segment::floor_share(&segment::heights(cloud, f), tolerance);
         if let (Some(o), Some(n)) = (share(&old), share(&new))
             && n >= FLOOR_BETTER * o
-            && n >= FLOOR_DOUBT_SHARE * most
+            && n >= FLOOR_MIN_SHARE
         {
             self.floor = Some(new);
             self.floor_support = Some(n);
+            self.floor_doubted = 0;
+            self.floor_tried_at = 0;
             self.floor_refits += 1;
             self.lose();
         }
