@@ -425,9 +425,8 @@ const MIN_HIP_WIDTHS: usize = 15;
 
 /// The floor in use is doubted on a frame where the share of the lower image half's valid
 /// pixels that lie on it falls under this share of the most it has held so far. One person
-/// close to a sensor hides under a third of it (rendered: 0.65 of 0.78 for a sensor a metre up
-/// looking level, someone a metre ahead; 0.73 of 1.0 for a thesis-rig sensor looking down,
-/// someone half a metre from it); a sensor that moved puts
+/// close to a sensor hides a sixth of it (rendered: 0.65 of 0.78 for a sensor a metre up
+/// looking level, someone a metre ahead); a sensor that moved puts
 /// nearly all of it off the plane: lowered by 5 cm, the floor lies 5 cm above the plane, and
 /// tilted by 2°, 3 m out, 10 cm off it, beyond [`SegmentParams::floor_tolerance_m`], and the
 /// person merges with it. A floor that was poor from the start (fitted to a frame whose floor
@@ -512,7 +511,7 @@ pub struct LegTracker {
     /// Once learned: the stature, and the length of each leg segment (thigh = shank) less half
     /// the hip height (the leg from hip to ankle grows with the hip's height).
     held: Option<(f64, f64)>,
-    /// While the body is held: the tops measured of a person found again, until there are
+    /// Once a stature is known: the tops measured of a person found again, until there are
     /// [`STATURE_CHECK_FRAMES`] to tell whether they are the one the body was learned from.
     recheck: Option<Vec<f64>>,
     /// Bodies learned afresh so far, for someone else found.
@@ -600,18 +599,20 @@ impl LegTracker {
         self.forward = None;
         self.walking = false;
         self.pelvis_history.clear();
-        // Whoever is found next may be someone else: their stature tells.
-        if self.held.is_some() {
+        // Whoever is found next may be someone else: their stature tells (once there is one
+        // to tell it against, held or being learned).
+        if self.held.is_some() || !self.statures.is_empty() {
             self.recheck = Some(Vec::new());
         }
     }
 
     /// Takes the top of a person found again (`top`, with the head and the whole body in view)
     /// and, once there are [`STATURE_CHECK_FRAMES`], learns the body afresh when their median
-    /// lies more than [`STATURE_CHANGE_M`] from the held stature: someone else walked in, and
-    /// the held stature, leg lengths, hip height and width were another body's.
+    /// lies more than [`STATURE_CHANGE_M`] from the stature held (or, while it is learned, the
+    /// median so far): someone else walked in, and the stature, leg lengths, hip height and
+    /// width were another body's.
     fn recheck_stature(&mut self, top: f64) {
-        let (Some(tops), Some((held, _))) = (self.recheck.as_mut(), self.held) else {
+        let Some(tops) = self.recheck.as_mut() else {
             return;
         };
         tops.push(top);
@@ -619,7 +620,15 @@ impl LegTracker {
             return;
         }
         let tops = self.recheck.take().unwrap_or_default();
-        if median(&mut tops.clone()).is_some_and(|m| (m - held).abs() > STATURE_CHANGE_M) {
+        let known = match self.held {
+            Some((s, _)) => Some(s),
+            None => median(&mut self.statures.clone()),
+        };
+        let Some(known) = known else {
+            self.statures = tops;
+            return;
+        };
+        if median(&mut tops.clone()).is_some_and(|m| (m - known).abs() > STATURE_CHANGE_M) {
             self.held = None;
             self.frames = 0;
             self.statures = tops;
@@ -628,6 +637,9 @@ impl LegTracker {
             self.hip_crossings.clear();
             self.hip_widths.clear();
             self.relearns += 1;
+        } else if self.held.is_none() {
+            // The same person, still being learned: their tops are statures too.
+            self.statures.extend(tops);
         }
     }
 
@@ -718,12 +730,14 @@ impl LegTracker {
         // Stature: the head must be in view to measure it.
         let top_in_view = !mask[..WIDTH * 2].iter().any(|&m| m);
         if top_in_view && person.height_range_m.1 > 1.0 {
-            if self.held.is_none() {
-                self.statures.push(person.height_range_m.1);
-            } else if !person.at_border {
+            if self.recheck.is_some() {
                 // Whole in view: someone walking in past the image's side edge shows a
                 // shoulder's height before the head.
-                self.recheck_stature(person.height_range_m.1);
+                if !person.at_border {
+                    self.recheck_stature(person.height_range_m.1);
+                }
+            } else if self.held.is_none() {
+                self.statures.push(person.height_range_m.1);
             }
         }
         let stature = match self.held {
@@ -807,6 +821,8 @@ impl LegTracker {
             self.floor_tried_at = 0;
             self.floor_refits += 1;
             self.lose();
+            // The same person, seen from the moved sensor: the body is kept.
+            self.recheck = None;
         }
     }
 
