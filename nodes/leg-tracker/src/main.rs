@@ -59,7 +59,7 @@ pub struct Counters {
     pub by_status: BTreeMap<&'static str, u64>,
     /// Floors fitted afresh because the one in use no longer matched the depth.
     pub floor_refits: u64,
-    /// Bodies learned afresh because the person found was someone else.
+    /// Bodies learned afresh because the person's stature changed.
     pub bodies_relearned: u64,
     /// Joints sent tracked.
     pub joints_tracked: u64,
@@ -153,7 +153,8 @@ pub struct Tracked {
     pub floor_refitted: bool,
     /// Frames in a row the floor has matched the depth poorly without a better one found.
     pub floor_doubted_frames: usize,
-    /// Whether the tracker began to learn the body afresh (someone else walked in).
+    /// Whether the tracker began to learn the body afresh (someone else walked in, or someone
+    /// stood up).
     pub body_relearned: bool,
 }
 
@@ -309,7 +310,7 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                     if body_relearned {
                         counters.bodies_relearned += 1;
                         info!(
-                            "{}: the person found is someone else (another stature): learning their stature and leg lengths afresh",
+                            "{}: the person's stature changed (someone else found, or someone who sat and stood up): learning their stature and leg lengths afresh",
                             config.sensor_id
                         );
                     }
@@ -339,7 +340,7 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
         .map(|(s, n)| format!("{s} {n}"))
         .collect();
     info!(
-        "{} frames sent ({}), {} joints tracked, {} inferred, floor fitted afresh {} times, {} other people's bodies learned; skipped: {} malformed, {} of another sensor, {} of the wrong size",
+        "{} frames sent ({}), {} joints tracked, {} inferred, floor fitted afresh {} times, {} bodies learned afresh; skipped: {} malformed, {} of another sensor, {} of the wrong size",
         counters.frames_sent,
         if statuses.is_empty() {
             "none".to_owned()

@@ -29,7 +29,9 @@
 //!    lengthens or shortens the leg by its change) and places the knee and ankle at
 //!    those distances along the fitted lines, an ankle never below the floor. The body so
 //!    learned is kept through frames without anyone, unless the person found next stands more
-//!    than 6 cm taller or shorter: someone else, whose body is learned afresh. Where the lower
+//!    than 6 cm taller or shorter: someone else, whose body is learned afresh; and so is that
+//!    of a person who stands 10 cm taller than the stature held for a second (nobody grows: it
+//!    was learned while they sat, crouched or bent over). Where the lower
 //!    legs pass each other they may land on the wrong chains; the exchange that makes thigh and
 //!    shank lines meet at the knees is tried below the predicted knees and below the height
 //!    where the predicted axes cross. A hip whose thigh is not seen moves with the seen one; a
@@ -330,7 +332,8 @@ pub struct TrackedFrame {
     /// the sensor moved to where too little floor is in view. 0 while it matches.
     pub floor_doubted_frames: usize,
     /// Whether the stature, leg lengths, hip height and width were forgotten at this frame to
-    /// be learned afresh: the person found again is someone else (their stature differs).
+    /// be learned afresh: the person found again is someone else (their stature differs), or
+    /// the person stands taller than the stature held (it was learned while they sat).
     pub body_relearned: bool,
 }
 
@@ -453,6 +456,19 @@ const STATURE_CHECK_FRAMES: usize = 10;
 /// over the learning frames.
 const STATURE_CHANGE_M: f64 = 0.06;
 
+/// Frames without anyone after which whoever is found is checked afresh, half a second at
+/// 30 Hz: a shorter loss is the same person flickering out of person-likeness (someone seated,
+/// their top near [`SegmentParams::min_person_height_m`]), and a check under way goes on.
+const SAME_PERSON_GAP_FRAMES: usize = 15;
+
+/// Frames (with the head and the whole body in view) over which a person followed is found to
+/// stand taller than the held stature: a second at 30 Hz, so that a hand raised over the head
+/// for less than half of it does not count.
+const STANDING_TALLER_FRAMES: usize = 30;
+/// How much taller than the held stature the median of those frames must be, metres: someone
+/// seated stands 0.4 m taller; walking, the head bobs by about ±2.5 cm.
+const STANDING_TALLER_M: f64 = 0.1;
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -514,8 +530,13 @@ pub struct LegTracker {
     /// Once a stature is known: the tops measured of a person found again, until there are
     /// [`STATURE_CHECK_FRAMES`] to tell whether they are the one the body was learned from.
     recheck: Option<Vec<f64>>,
-    /// Bodies learned afresh so far, for someone else found.
+    /// The tops of the last [`STANDING_TALLER_FRAMES`] frames with the head and the whole body
+    /// in view, while the stature is held.
+    recent_tops: std::collections::VecDeque<f64>,
+    /// Bodies learned afresh so far, for someone else found or someone who stood up.
     relearns: usize,
+    /// Frames in a row without the person followed.
+    absent: usize,
 }
 
 fn median(v: &mut [f64]) -> Option<f64> {
@@ -581,7 +602,9 @@ impl LegTracker {
             hip_crossings: Vec::new(),
             held: None,
             recheck: None,
+            recent_tops: std::collections::VecDeque::new(),
             relearns: 0,
+            absent: 0,
         })
     }
 
@@ -599,9 +622,15 @@ impl LegTracker {
         self.forward = None;
         self.walking = false;
         self.pelvis_history.clear();
+        self.recent_tops.clear();
         // Whoever is found next may be someone else: their stature tells (once there is one
-        // to tell it against, held or being learned).
-        if self.held.is_some() || !self.statures.is_empty() {
+        // to tell it against, held or being learned). A check under way goes on through a
+        // short loss (a person flickering in and out of person-likeness is still the same),
+        // and starts over after a long one.
+        self.absent += 1;
+        if (self.held.is_some() || !self.statures.is_empty())
+            && (self.recheck.is_none() || self.absent == SAME_PERSON_GAP_FRAMES)
+        {
             self.recheck = Some(Vec::new());
         }
     }
@@ -629,18 +658,47 @@ impl LegTracker {
             return;
         };
         if median(&mut tops.clone()).is_some_and(|m| (m - known).abs() > STATURE_CHANGE_M) {
-            self.held = None;
-            self.frames = 0;
-            self.statures = tops;
-            self.thighs.clear();
-            self.shanks.clear();
-            self.hip_crossings.clear();
-            self.hip_widths.clear();
-            self.relearns += 1;
+            self.learn_body_afresh(tops);
         } else if self.held.is_none() {
             // The same person, still being learned: their tops are statures too.
             self.statures.extend(tops);
         }
+    }
+
+    /// Takes the top of the person followed (`top`, with the head and the whole body in view)
+    /// while the stature is held, and learns the body afresh when the median of the last
+    /// [`STANDING_TALLER_FRAMES`] lies more than [`STANDING_TALLER_M`] above the held stature:
+    /// nobody grows, so the body was learned from someone not standing upright (seated at the
+    /// start of a Timed-Up-and-Go, crouching, bending over), or from someone shorter.
+    fn watch_stature(&mut self, top: f64) {
+        let Some((held, _)) = self.held else {
+            return;
+        };
+        self.recent_tops.push_back(top);
+        if self.recent_tops.len() > STANDING_TALLER_FRAMES {
+            self.recent_tops.pop_front();
+        }
+        if self.recent_tops.len() == STANDING_TALLER_FRAMES
+            && median(&mut self.recent_tops.iter().copied().collect::<Vec<_>>())
+                .is_some_and(|m| m > held + STANDING_TALLER_M)
+        {
+            let tops = self.recent_tops.drain(..).collect();
+            self.learn_body_afresh(tops);
+        }
+    }
+
+    /// Forgets the stature, leg lengths, hip height and width, and learns them afresh from the
+    /// next frames, starting from the `tops` just measured.
+    fn learn_body_afresh(&mut self, tops: Vec<f64>) {
+        self.held = None;
+        self.frames = 0;
+        self.statures = tops;
+        self.thighs.clear();
+        self.shanks.clear();
+        self.hip_crossings.clear();
+        self.hip_widths.clear();
+        self.recent_tops.clear();
+        self.relearns += 1;
     }
 
     /// Tracks one frame.
@@ -703,6 +761,7 @@ impl LegTracker {
             return out;
         };
         self.last_centroid = Some(person.centroid);
+        self.absent = 0;
         let limbs = segment::cut_off_limbs(&labels, &cloud, &comps, &person, &floor, &params);
         // Per pixel: 0 off the person, 1 on its component, 2 + k on its k-th cut-off limb (any
         // beyond the 253rd share the last id).
@@ -730,14 +789,16 @@ impl LegTracker {
         // Stature: the head must be in view to measure it.
         let top_in_view = !mask[..WIDTH * 2].iter().any(|&m| m);
         if top_in_view && person.height_range_m.1 > 1.0 {
-            if self.recheck.is_some() {
+            if self.held.is_none() && self.recheck.is_none() {
+                self.statures.push(person.height_range_m.1);
+            } else if !person.at_border {
                 // Whole in view: someone walking in past the image's side edge shows a
                 // shoulder's height before the head.
-                if !person.at_border {
+                if self.recheck.is_some() {
                     self.recheck_stature(person.height_range_m.1);
+                } else {
+                    self.watch_stature(person.height_range_m.1);
                 }
-            } else if self.held.is_none() {
-                self.statures.push(person.height_range_m.1);
             }
         }
         let stature = match self.held {

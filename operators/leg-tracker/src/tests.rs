@@ -1139,6 +1139,178 @@ fn someone_else_walking_in_is_measured_afresh() {
     assert!(failures.is_empty(), "{failures:?}");
 }
 
+/// A person rising from a chair, as at the start of a Timed-Up-and-Go, in world coordinates
+/// at `t` seconds: seated for `seated` s (hip joint centres 0.50 m up, thighs level, shanks
+/// upright over the ankles), rising over 1.5 s (the hips move forward over the feet while the
+/// trunk leans forward up to 40°, then lift as the knees extend, the feet staying put), then
+/// standing upright. The legs keep the walker's segment lengths (each knee placed by two-link
+/// inverse kinematics between its hip and its ankle); `at` is the seat's spot on the floor and
+/// `forward` the way the person faces. No chair is rendered.
+fn rising_from_a_chair(
+    p: &WalkerParams,
+    lean_deg: f64,
+    at: Point3<f64>,
+    forward: nalgebra::Vector3<f64>,
+    seated: f64,
+    t: f64,
+) -> impl Fn(Joint) -> Option<Point3<f64>> {
+    let up = nalgebra::Vector3::z();
+    let left = up.cross(&forward);
+    let (thigh, shank, ankle_h) = (p.thigh_m, p.shank_m, p.ankle_height_m);
+    let smooth = |x: f64| {
+        let x = x.clamp(0.0, 1.0);
+        x * x * (3.0 - 2.0 * x)
+    };
+    let s = ((t - seated) / 1.5).clamp(0.0, 1.0);
+    // Ankles under the seated knees; the hips end over them, the knees nearly straight.
+    let ahead = thigh;
+    let along = ahead * smooth(s / 0.6);
+    let height = 0.50 + (ankle_h + thigh + shank - 0.01 - 0.50) * smooth((s - 0.25) / 0.75);
+    let lean = lean_deg.to_radians() * (std::f64::consts::PI * (s / 0.8).min(1.0)).sin();
+    let pelvis = at + forward * along + up * height;
+    // Pelvis to the base of the neck, as the body is drawn for the walker (which has no
+    // `SpineShoulder`).
+    let trunk = BodyShape::default().torso_length * thigh;
+    let joints: Vec<(Joint, Point3<f64>)> = [
+        (
+            1.0,
+            Joint::HipLeft,
+            Joint::KneeLeft,
+            Joint::AnkleLeft,
+            Joint::FootLeft,
+        ),
+        (
+            -1.0,
+            Joint::HipRight,
+            Joint::KneeRight,
+            Joint::AnkleRight,
+            Joint::FootRight,
+        ),
+    ]
+    .iter()
+    .flat_map(|&(side, hj, kj, aj, fj)| {
+        let hip = pelvis + left * (side * 0.5 * p.hip_width_m);
+        let ankle = at + forward * ahead + left * (side * 0.6 * p.hip_width_m) + up * ankle_h;
+        // The knee: at `thigh` from the hip and `shank` from the ankle, ahead of the line
+        // between them.
+        let d = ankle - hip;
+        let n = d.norm().min(thigh + shank - 1e-6);
+        let a = (thigh * thigh - shank * shank + n * n) / (2.0 * n);
+        let h = (thigh * thigh - a * a).max(0.0).sqrt();
+        let dir = d / d.norm();
+        let out = (forward - dir * dir.dot(&forward)).normalize();
+        let knee = hip + dir * a + out * h;
+        let foot = ankle + forward * (0.086 * p.height_m) - up * (0.5 * ankle_h);
+        [(hj, hip), (kj, knee), (aj, ankle), (fj, foot)]
+    })
+    .chain([
+        (Joint::SpineBase, pelvis),
+        (
+            Joint::SpineShoulder,
+            pelvis + (forward * lean.sin() + up * lean.cos()) * trunk,
+        ),
+    ])
+    .collect();
+    move |j| joints.iter().find(|(k, _)| *k == j).map(|(_, p)| *p)
+}
+
+/// Someone seated when the tracker starts, who then stands up, is measured as they stand: a
+/// tall person seated for 3 s (no chair rendered), rising over 1.5 s, then standing still for
+/// 4 s ([`rising_from_a_chair`], on the walkway where the walker is 1.5 s into its lap, facing
+/// its way), 1.95 m tall leaning 40° forward to rise and 2.0 m leaning 20°. Seated, the top of
+/// the head is 1.38–1.40 m up, person-like, and the body held after the learning frames is the
+/// seated one's. On k1 and k2, which see the standing person's head, the body is learned
+/// afresh once as they stand (nobody grows: a second of standing 10 cm taller than the held
+/// stature tells; without that, three of the four kept the seated body, and their standing
+/// hips were 0.31–0.32 m off, the knees 0.18–0.19 m; the fourth was lost in the lean and found
+/// again, taller), and over the last 2 s the hips are within 5 cm of the rendered joint
+/// centres (median; standing still, the hip sits at the anthropometric 0.52 of the stature,
+/// about 4 cm under the rendered body's), the knees and ankles within 4 cm. k3 sees the
+/// standing person's head above its image, cannot measure the stature, and keeps the seated
+/// body (printed, not asserted: hips 0.31–0.33 m off).
+#[test]
+fn someone_who_stands_up_is_measured_afresh() {
+    const SEATED: f64 = 3.0;
+    const FRAMES: usize = 255;
+    let clip = lap();
+    let at = {
+        let p = clip.position_at(Joint::SpineBase, 1.5).unwrap();
+        Point3::new(p.x, p.y, 0.0)
+    };
+    let forward = {
+        let d = clip.position_at(Joint::SpineBase, 1.6).unwrap()
+            - clip.position_at(Joint::SpineBase, 1.4).unwrap();
+        nalgebra::Vector3::new(d.x, d.y, 0.0).normalize()
+    };
+    let mut failures = Vec::new();
+    for (height, lean) in [(1.95, 40.0), (2.0, 20.0)] {
+        let person = WalkerParams::for_height(height);
+        for sensor in &Rig::builtin("thesis").unwrap().sensors {
+            let pose = sensor.world_from_kinect;
+            let mut renderer = seeded_renderer(&pose, NOISE_SEED);
+            let mut tracker = LegTracker::new(config_for(&pose)).unwrap();
+            let (mut relearned, mut seated_stature) = (Vec::new(), None);
+            let mut errors: [Vec<f64>; 3] = Default::default();
+            for f in 0..FRAMES {
+                let t = f as f64 / RATE_HZ;
+                let r = renderer
+                    .render_pose(
+                        &BodyShape::default(),
+                        rising_from_a_chair(&person, lean, at, forward, SEATED, t),
+                    )
+                    .unwrap();
+                let out = tracker.track(&r.depth);
+                if out.body_relearned {
+                    relearned.push(f);
+                }
+                if f < 100 && out.lengths_held {
+                    seated_stature = out.stature_m;
+                }
+                if f + 60 < FRAMES {
+                    continue;
+                }
+                for (class, pair) in [
+                    [Joint::HipLeft, Joint::HipRight],
+                    [Joint::KneeLeft, Joint::KneeRight],
+                    [Joint::AnkleLeft, Joint::AnkleRight],
+                ]
+                .iter()
+                .enumerate()
+                {
+                    for j in pair {
+                        if let (Some(tj), Some(g)) = (out.joint(*j), r.joint(*j)) {
+                            errors[class].push((tj.position_in_kinect - g).norm());
+                        }
+                    }
+                }
+            }
+            let medians: Vec<f64> = errors.iter().map(|e| median(e.clone())).collect();
+            eprintln!(
+                "{} ({height} m, leaning {lean}°): held seated {seated_stature:.2?} m; body learned afresh at frames {relearned:?} (rising over 90-135); standing, median hip / knee / ankle {medians:.3?} m, stature {:.2?} m",
+                sensor.id,
+                tracker.held.map(|h| h.0)
+            );
+            if sensor.id == "k3" {
+                continue;
+            }
+            let who = format!("{} ({height} m)", sensor.id);
+            if seated_stature.is_none_or(|s| s > 1.5) {
+                failures.push(format!("{who}: seated, held {seated_stature:?}"));
+            }
+            if relearned.len() != 1 || !(90..150).contains(&relearned[0]) {
+                failures.push(format!("{who}: learned afresh at {relearned:?}"));
+            }
+            let goals = [0.05, 0.04, 0.04];
+            if errors.iter().any(|e| e.len() < 60)
+                || medians.iter().zip(goals).any(|(m, g)| m.is_nan() || *m > g)
+            {
+                failures.push(format!("{who}: medians {medians:.3?}"));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
 /// Parameters out of range are errors.
 #[test]
 fn bad_config() {
