@@ -839,6 +839,27 @@ fn robustness() {
     ));
 }
 
+/// Adds the frame's hip, knee and ankle errors against the rendered joint centres to
+/// `errors` (one list per class), for the joints both report.
+fn push_leg_errors(
+    out: &TrackedFrame,
+    truth: &trigait_body_render::Rendered,
+    errors: &mut [Vec<f64>; 3],
+) {
+    let pairs = [
+        [Joint::HipLeft, Joint::HipRight],
+        [Joint::KneeLeft, Joint::KneeRight],
+        [Joint::AnkleLeft, Joint::AnkleRight],
+    ];
+    for (class, pair) in pairs.iter().enumerate() {
+        for j in pair {
+            if let (Some(t), Some(g)) = (out.joint(*j), truth.joint(*j)) {
+                errors[class].push((t.position_in_kinect - g).norm());
+            }
+        }
+    }
+}
+
 /// A sensor knocked during a walk (its tripod 5 cm lower, tilted 2° down) sees the floor off the
 /// plane it held: 5 cm above it and, 3 m out, 15 cm, so the person merged with the floor and
 /// was `Nobody` on every frame for the rest of the walk, with the floor fitted as with the
@@ -897,20 +918,7 @@ fn a_knocked_sensor_finds_its_floor_again() {
                 if f < KNOCK + 30 || near_turn(t, lap.duration_secs()) {
                     continue;
                 }
-                for (class, pair) in [
-                    [Joint::HipLeft, Joint::HipRight],
-                    [Joint::KneeLeft, Joint::KneeRight],
-                    [Joint::AnkleLeft, Joint::AnkleRight],
-                ]
-                .iter()
-                .enumerate()
-                {
-                    for j in pair {
-                        if let (Some(tj), Some(g)) = (out.joint(*j), r.joint(*j)) {
-                            errors[k][class].push((tj.position_in_kinect - g).norm());
-                        }
-                    }
-                }
+                push_leg_errors(&out, &r, &mut errors[k]);
             }
         }
         for (k, (floor, _)) in trackers.iter().enumerate() {
@@ -1093,20 +1101,7 @@ fn someone_else_walking_in_is_measured_afresh() {
                 if near_turn(t, c.duration_secs()) {
                     continue;
                 }
-                for (class, pair) in [
-                    [Joint::HipLeft, Joint::HipRight],
-                    [Joint::KneeLeft, Joint::KneeRight],
-                    [Joint::AnkleLeft, Joint::AnkleRight],
-                ]
-                .iter()
-                .enumerate()
-                {
-                    for j in pair {
-                        if let (Some(tj), Some(g)) = (out.joint(*j), r.joint(*j)) {
-                            errors[class].push((tj.position_in_kinect - g).norm());
-                        }
-                    }
-                }
+                push_leg_errors(&out, &r, &mut errors);
             }
             let medians: Vec<f64> = errors.iter().map(|e| median(e.clone())).collect();
             eprintln!(
@@ -1269,20 +1264,7 @@ fn someone_who_stands_up_is_measured_afresh() {
                 if f + 60 < FRAMES {
                     continue;
                 }
-                for (class, pair) in [
-                    [Joint::HipLeft, Joint::HipRight],
-                    [Joint::KneeLeft, Joint::KneeRight],
-                    [Joint::AnkleLeft, Joint::AnkleRight],
-                ]
-                .iter()
-                .enumerate()
-                {
-                    for j in pair {
-                        if let (Some(tj), Some(g)) = (out.joint(*j), r.joint(*j)) {
-                            errors[class].push((tj.position_in_kinect - g).norm());
-                        }
-                    }
-                }
+                push_leg_errors(&out, &r, &mut errors);
             }
             let medians: Vec<f64> = errors.iter().map(|e| median(e.clone())).collect();
             eprintln!(
