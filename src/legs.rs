@@ -350,7 +350,7 @@ fn table(file: &Path, t: &TrackedFrame, iou: Option<f64>) -> String {
         s += &format!(", IoU with the mask {iou:.3}");
     }
     if t.body_relearned {
-        s += ", the stature changed (someone else, or someone who stood up): the body is learned afresh";
+        s += ", the stature changed (someone else, someone who stood up, or a hand over the head): the body is learned afresh";
     }
     if t.floor_refitted {
         s += ", floor fitted afresh (the one in use no longer matched the depth: the sensor moved, or these frames are another sensor's)";

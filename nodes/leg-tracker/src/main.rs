@@ -310,7 +310,7 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                     if body_relearned {
                         counters.bodies_relearned += 1;
                         info!(
-                            "{}: the person's stature changed (someone else found, or someone who sat and stood up): learning their stature and leg lengths afresh",
+                            "{}: the person's stature changed (someone else found, someone who sat and stood up, or a hand held over the head): learning their stature and leg lengths afresh",
                             config.sensor_id
                         );
                     }

@@ -30,8 +30,9 @@
 //!    those distances along the fitted lines, an ankle never below the floor. The body so
 //!    learned is kept through frames without anyone, unless the person found next stands more
 //!    than 6 cm taller or shorter: someone else, whose body is learned afresh; and so is that
-//!    of a person who stands 10 cm taller than the stature held for a second (nobody grows: it
-//!    was learned while they sat, crouched or bent over). Where the lower
+//!    of a person who stands 10 cm taller than the stature held for most of a second (nobody
+//!    grows: it was learned while they sat, crouched or bent over; a hand held over the head
+//!    counts too). Where the lower
 //!    legs pass each other they may land on the wrong chains; the exchange that makes thigh and
 //!    shank lines meet at the knees is tried below the predicted knees and below the height
 //!    where the predicted axes cross. A hip whose thigh is not seen moves with the seen one; a
@@ -537,6 +538,8 @@ pub struct LegTracker {
     relearns: usize,
     /// Frames in a row without the person followed.
     absent: usize,
+    /// `frames` when the body's learning last started.
+    learning_since: usize,
 }
 
 fn median(v: &mut [f64]) -> Option<f64> {
@@ -605,6 +608,7 @@ impl LegTracker {
             recent_tops: std::collections::VecDeque::new(),
             relearns: 0,
             absent: 0,
+            learning_since: 0,
         })
     }
 
@@ -616,23 +620,28 @@ impl LegTracker {
 
     fn lose(&mut self) {
         // A person found again may be someone else, or the same one turned round.
-        self.left = None;
-        self.legs = None;
+        self.forget_legs();
         self.last_centroid = None;
-        self.forward = None;
-        self.walking = false;
-        self.pelvis_history.clear();
-        self.recent_tops.clear();
         // Whoever is found next may be someone else: their stature tells (once there is one
         // to tell it against, held or being learned). A check under way goes on through a
         // short loss (a person flickering in and out of person-likeness is still the same),
         // and starts over after a long one.
         self.absent += 1;
         if (self.held.is_some() || !self.statures.is_empty())
-            && (self.recheck.is_none() || self.absent == SAME_PERSON_GAP_FRAMES)
+            && (self.recheck.is_none() || self.absent >= SAME_PERSON_GAP_FRAMES)
         {
             self.recheck = Some(Vec::new());
         }
+    }
+
+    /// Forgets the legs' tracks, their sides and the walk: they are found afresh.
+    fn forget_legs(&mut self) {
+        self.left = None;
+        self.legs = None;
+        self.forward = None;
+        self.walking = false;
+        self.pelvis_history.clear();
+        self.recent_tops.clear();
     }
 
     /// Takes the top of a person found again (`top`, with the head and the whole body in view)
@@ -666,10 +675,12 @@ impl LegTracker {
     }
 
     /// Takes the top of the person followed (`top`, with the head and the whole body in view)
-    /// while the stature is held, and learns the body afresh when the median of the last
-    /// [`STANDING_TALLER_FRAMES`] lies more than [`STANDING_TALLER_M`] above the held stature:
+    /// while the stature is held, and learns the body afresh when all but a fifth of the last
+    /// [`STANDING_TALLER_FRAMES`] lie more than [`STANDING_TALLER_M`] above the held stature:
     /// nobody grows, so the body was learned from someone not standing upright (seated at the
-    /// start of a Timed-Up-and-Go, crouching, bending over), or from someone shorter.
+    /// start of a Timed-Up-and-Go, crouching, bending over), or from someone shorter. A hand
+    /// held over the head for most of a second counts too (the top is the highest pixel); the
+    /// body is then learned afresh from the same person.
     fn watch_stature(&mut self, top: f64) {
         let Some((held, _)) = self.held else {
             return;
@@ -678,20 +689,24 @@ impl LegTracker {
         if self.recent_tops.len() > STANDING_TALLER_FRAMES {
             self.recent_tops.pop_front();
         }
-        if self.recent_tops.len() == STANDING_TALLER_FRAMES
-            && median(&mut self.recent_tops.iter().copied().collect::<Vec<_>>())
-                .is_some_and(|m| m > held + STANDING_TALLER_M)
-        {
-            let tops = self.recent_tops.drain(..).collect();
-            self.learn_body_afresh(tops);
+        if self.recent_tops.len() == STANDING_TALLER_FRAMES {
+            let mut tops: Vec<f64> = self.recent_tops.iter().copied().collect();
+            tops.sort_by(f64::total_cmp);
+            if tops[STANDING_TALLER_FRAMES / 5] > held + STANDING_TALLER_M {
+                // The stature is measured afresh over the learning frames (the window may
+                // hold a raised hand).
+                self.learn_body_afresh(Vec::new());
+            }
         }
     }
 
     /// Forgets the stature, leg lengths, hip height and width, and learns them afresh from the
-    /// next frames, starting from the `tops` just measured.
+    /// next frames, starting from the `tops` just measured; the legs are found afresh too (fitted
+    /// below another hip height, the chains may change legs).
     fn learn_body_afresh(&mut self, tops: Vec<f64>) {
+        self.forget_legs();
         self.held = None;
-        self.frames = 0;
+        self.learning_since = self.frames;
         self.statures = tops;
         self.thighs.clear();
         self.shanks.clear();
@@ -816,7 +831,7 @@ impl LegTracker {
         out.stature_m = stature;
         out.segment_lengths_m = out.hip_height_m.and_then(|hip_h| self.lengths(hip_h));
         if self.held.is_none()
-            && self.frames >= self.config.learning_frames
+            && self.frames - self.learning_since >= self.config.learning_frames
             && self.thighs.len() >= 10
             && self.shanks.len() >= 10
             && let (Some(s), Some(hip_h), Some(l)) =
@@ -830,7 +845,7 @@ impl LegTracker {
             let measured = 0.5 * (l.0 + l.1) - 0.5 * hip_h;
             self.held = Some((s, measured.min(straight + 0.5 * LEG_SLACK_M)));
         } else if self.held.is_none()
-            && self.frames >= self.config.learning_frames
+            && self.frames - self.learning_since >= self.config.learning_frames
             && let Some(s) = stature
         {
             // Too few lengths measured in the learning frames: a person standing still bends
@@ -881,9 +896,11 @@ impl LegTracker {
             self.floor_doubted = 0;
             self.floor_tried_at = 0;
             self.floor_refits += 1;
+            // The same person, seen from the moved sensor: the body is kept, and a check of
+            // someone found after a loss goes on.
+            let pending = self.recheck.take();
             self.lose();
-            // The same person, seen from the moved sensor: the body is kept.
-            self.recheck = None;
+            self.recheck = pending;
         }
     }
 
