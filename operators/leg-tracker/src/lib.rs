@@ -634,6 +634,14 @@ impl LegTracker {
         }
     }
 
+    /// The stature: held, or while it is learned the median measured so far.
+    fn stature(&self) -> Option<f64> {
+        match self.held {
+            Some((s, _)) => Some(s),
+            None => median(&mut self.statures.clone()),
+        }
+    }
+
     /// Forgets the legs' tracks, their sides and the walk: they are found afresh.
     fn forget_legs(&mut self) {
         self.left = None;
@@ -658,11 +666,7 @@ impl LegTracker {
             return;
         }
         let tops = self.recheck.take().unwrap_or_default();
-        let known = match self.held {
-            Some((s, _)) => Some(s),
-            None => median(&mut self.statures.clone()),
-        };
-        let Some(known) = known else {
+        let Some(known) = self.stature() else {
             self.statures = tops;
             return;
         };
@@ -712,7 +716,6 @@ impl LegTracker {
         self.shanks.clear();
         self.hip_crossings.clear();
         self.hip_widths.clear();
-        self.recent_tops.clear();
         self.relearns += 1;
     }
 
@@ -816,10 +819,7 @@ impl LegTracker {
                 }
             }
         }
-        let stature = match self.held {
-            Some((s, _)) => Some(s),
-            None => median(&mut self.statures.clone()),
-        };
+        let stature = self.stature();
         // This frame's hip height, before the frame adds a crossing.
         out.hip_height_m = stature.map(|s| self.hip_height(s));
         match (stature, out.hip_height_m) {

@@ -39,7 +39,8 @@ pub struct Component {
 pub(crate) struct Cloud {
     /// Camera-space point per pixel (z = 0: no data).
     pub points: Vec<Point3<f32>>,
-    /// Height above the floor per pixel (NaN: no data or no floor).
+    /// Height above the floor per pixel (NaN: no data), once [`components`] has the floor;
+    /// empty before.
     pub height: Vec<f32>,
     /// Valid pixels.
     pub valid: usize,
@@ -61,7 +62,7 @@ pub(crate) fn back_project(frame: &DepthFrame, camera: &Camera, rays: &[(f32, f3
     }
     Cloud {
         points,
-        height: vec![f32::NAN; PIXELS],
+        height: Vec::new(),
         valid,
     }
 }
@@ -184,19 +185,14 @@ pub(crate) fn components(
     params: &crate::SegmentParams,
     fx: f64,
 ) -> (Vec<u32>, Vec<Component>) {
-    let up = floor.up_in_kinect.cast::<f32>();
-    let h0 = floor.camera_height_m as f32;
+    cloud.height = heights(cloud, floor);
     let (floor_tol, ceiling) = (params.floor_tolerance_m as f32, params.max_height_m as f32);
-    let mut candidate = vec![false; PIXELS];
-    for i in 0..PIXELS {
-        let p = cloud.points[i];
-        if p.z <= 0.0 {
-            continue;
-        }
-        let h = up.dot(&p.coords) + h0;
-        cloud.height[i] = h;
-        candidate[i] = h > floor_tol && h < ceiling;
-    }
+    // No data (NaN) is no candidate.
+    let candidate: Vec<bool> = cloud
+        .height
+        .iter()
+        .map(|&h| h > floor_tol && h < ceiling)
+        .collect();
     let mut dsu = Dsu {
         parent: (0..PIXELS as u32).collect(),
     };
