@@ -14,35 +14,35 @@ use trigait_calibration_sim::{Outcome, Scenario, simulate};
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Motion: `walker` or a C3D/TRC marker file, placed on the walkway.
-    #[arg(long, default_value = "walker")]
+    #[arg(long, conflicts_with = "recording", default_value = "walker")]
     motion: String,
     /// The true rig: `thesis`, `ring-N` or a YAML rig file.
-    #[arg(long, default_value = "thesis")]
+    #[arg(long, conflicts_with = "recording", default_value = "thesis")]
     rig: String,
     /// Perturbation of the rough rig the calibration starts from: metres each sensor is moved (in
     /// a random direction) and degrees it is turned about the vertical (left or right at random).
-    #[arg(long, default_value = "0.3,20", value_parser = parse_perturb)]
+    #[arg(long, conflicts_with = "recording", default_value = "0.3,20", value_parser = parse_perturb)]
     perturb: (f64, f64),
     /// Where the adjustment starts: `rig` (the perturbed rig) or `data` (pairwise alignment).
     #[arg(long, default_value = "rig", value_parser = ["rig", "data"])]
     init: String,
     /// Path: `lanes` (out and back, the way back `--lane-m` to the side) or `straight` (one pass).
-    #[arg(long, default_value = "lanes", value_parser = ["lanes", "straight"])]
+    #[arg(long, conflicts_with = "recording", default_value = "lanes", value_parser = ["lanes", "straight"])]
     path: String,
     /// Distance between the outbound and the return lane, metres (0: back on the same line).
-    #[arg(long, default_value_t = 1.0, value_parser = crate::ranges::number(0.0, 10.0, "m"))]
+    #[arg(long, conflicts_with = "recording", default_value_t = 1.0, value_parser = crate::ranges::number(0.0, 10.0, "m"))]
     lane_m: f64,
     /// Out-and-back laps.
-    #[arg(long, default_value_t = 1, value_parser = crate::ranges::count(1, 50))]
+    #[arg(long, conflicts_with = "recording", default_value_t = 1, value_parser = crate::ranges::count(1, 50))]
     laps: usize,
     /// Time between the passes while the walker turns (not simulated: nothing is reported), s.
-    #[arg(long, default_value_t = 1.0, value_parser = crate::ranges::number(0.0, 60.0, "s"))]
+    #[arg(long, conflicts_with = "recording", default_value_t = 1.0, value_parser = crate::ranges::number(0.0, 60.0, "s"))]
     turn_secs: f64,
     /// A sensor whose skeleton output has left and right swapped throughout.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "recording")]
     swap: Option<String>,
     /// Seed of the sensor noise and of the perturbation.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, conflicts_with = "recording", default_value_t = 1)]
     seed: u64,
     /// Write the calibrated rig here (a rig YAML file the graphs read).
     #[arg(long)]
@@ -54,14 +54,14 @@ pub struct Args {
     /// rough rig) and after the calibration; open it with `rerun FILE`.
     #[arg(long)]
     rrd: Option<PathBuf>,
-    /// Calibrate from a trial recording instead (a recorder's `OUTPUT_DIR`: its `frames.csv`,
-    /// the frames on their recorded server stamps); `--init rig` then starts from
+    /// Calibrate from a trial recording instead (a recorder's `OUTPUT_DIR`, or its
+    /// `frames.csv`: the frames on their recorded server stamps); `--init rig` then starts from
     /// `--start-rig`. The simulation options do not apply.
     #[arg(long)]
     recording: Option<PathBuf>,
     /// With `--recording` and `--init rig`: the rough rig to start from (`thesis`, `ring-N` or
     /// a YAML file; default: the recording's own `rig.yml`, the rig the trial ran with).
-    #[arg(long)]
+    #[arg(long, requires = "recording")]
     start_rig: Option<String>,
 }
 
@@ -81,10 +81,32 @@ fn parse_perturb(s: &str) -> Result<(f64, f64), String> {
 }
 
 /// `trigait calibrate --recording DIR`.
-fn run_recording(args: &Args, dir: &std::path::Path) -> eyre::Result<()> {
+fn run_recording(args: &Args, given: &std::path::Path) -> eyre::Result<()> {
+    // The directory, or its frames file.
+    let dir = match given.parent() {
+        Some(parent)
+            if given.is_file()
+                && given.file_name() == Some(trigait_recording::FRAMES_FILE.as_ref()) =>
+        {
+            if parent.as_os_str().is_empty() {
+                std::path::Path::new(".")
+            } else {
+                parent
+            }
+        }
+        _ => given,
+    };
     let frames_path = dir.join(trigait_recording::FRAMES_FILE);
     let frames = trigait_recording::read_frames(&frames_path)
         .wrap_err_with(|| format!("reading the recording {}", dir.display()))?;
+    if !frames.is_empty() && frames.iter().all(|f| f.server_stamp_nanos.is_none()) {
+        eyre::bail!(
+            "{}: none of its {} frames has a server stamp, so the sensors share no clock to \
+             calibrate on (was the recording made with `sync` ahead of the recorder?)",
+            frames_path.display(),
+            frames.len()
+        );
+    }
     let tracks = trigait_recording::calibration_tracks(&frames);
     let start = match (&args.start_rig, args.init.as_str()) {
         (_, "data") => None,

@@ -313,7 +313,14 @@ pub(crate) fn pseudo_inverse(s: &DMatrix<f64>) -> DMatrix<f64> {
     if s.nrows() == 0 {
         return s.clone();
     }
-    let svd = s.clone().svd(true, true);
+    let Some(svd) = s.clone().try_svd(
+        true,
+        true,
+        f64::EPSILON,
+        crate::MAX_DECOMPOSITION_ITERATIONS,
+    ) else {
+        return DMatrix::from_diagonal_element(s.nrows(), s.ncols(), f64::INFINITY);
+    };
     let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
         return DMatrix::from_diagonal_element(s.nrows(), s.ncols(), f64::INFINITY);
     };

@@ -34,7 +34,12 @@ pub(crate) fn kabsch(pairs: &[Pair]) -> Option<Isometry3<f64>> {
     for p in pairs {
         h += (p.b.coords - cb) * (p.a.coords - ca).transpose() * p.weight;
     }
-    let svd = h.svd(true, true);
+    let svd = h.try_svd(
+        true,
+        true,
+        f64::EPSILON,
+        crate::MAX_DECOMPOSITION_ITERATIONS,
+    )?;
     let (u, v_t) = (svd.u?, svd.v_t?);
     let s = &svd.singular_values;
     // Collinear points leave the rotation about their line free.

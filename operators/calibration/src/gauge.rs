@@ -230,7 +230,11 @@ pub fn gauge(tracks: &Tracks, ankle_height_m: Option<f64>) -> Result<Gauge> {
     // degree over a walk of 30 s), fitted to the pelvis path a few hundredths.
     let pelvis_points: Vec<Point3<f64>> = pelvis.iter().map(|(_, p)| *p).collect();
     let (_, pelvis_cov) = mean_cov(&pelvis_points);
-    let eig = pelvis_cov.symmetric_eigen();
+    let eig = pelvis_cov
+        .try_symmetric_eigen(f64::EPSILON, crate::MAX_DECOMPOSITION_ITERATIONS)
+        .ok_or(Error::NonFinite {
+            what: "plane of the pelvis path",
+        })?;
     let (imin, _) = eig
         .eigenvalues
         .iter()
@@ -246,7 +250,7 @@ pub fn gauge(tracks: &Tracks, ankle_height_m: Option<f64>) -> Result<Gauge> {
     let normal = if candidate.dot(&up) > 30f64.to_radians().cos() {
         candidate
     } else {
-        let (_, along) = principal_direction(&pelvis_points, &up);
+        let (_, along) = principal_direction(&pelvis_points, &up)?;
         unit(flat(up, &along)).unwrap_or(up)
     };
     // The floor's level: the stance ankles, Huber-weighted with a fixed threshold (so the
@@ -280,7 +284,7 @@ pub fn gauge(tracks: &Tracks, ankle_height_m: Option<f64>) -> Result<Gauge> {
         .iter()
         .flat_map(|v| [Point3::from(*v), Point3::from(-v)])
         .collect();
-    let (_, mut x) = principal_direction(&directions, &normal);
+    let (_, mut x) = principal_direction(&directions, &normal)?;
     // Sign: where the walk goes in its first second (first unbroken run of pelvis samples).
     let (k0, p0) = pelvis[0];
     let mut heading = Vector3::zeros();
@@ -448,7 +452,7 @@ fn stance_cores(tracks: &Tracks, ankle: Joint) -> Vec<Vec<Point3<f64>>> {
 fn principal_direction(
     points: &[Point3<f64>],
     normal: &Vector3<f64>,
-) -> (Point3<f64>, Vector3<f64>) {
+) -> Result<(Point3<f64>, Vector3<f64>)> {
     let (c, cov) = mean_cov(points);
     let a = unit(normal.cross(&Vector3::x()))
         .or_else(|| unit(normal.cross(&Vector3::y())))
@@ -460,12 +464,16 @@ fn principal_direction(
         (b.transpose() * cov * a)[(0, 0)],
         (b.transpose() * cov * b)[(0, 0)],
     );
-    let eig = m.symmetric_eigen();
+    let eig = m
+        .try_symmetric_eigen(f64::EPSILON, crate::MAX_DECOMPOSITION_ITERATIONS)
+        .ok_or(Error::NonFinite {
+            what: "direction of the walk",
+        })?;
     let i = if eig.eigenvalues[0] >= eig.eigenvalues[1] {
         0
     } else {
         1
     };
     let v = eig.eigenvectors.column(i);
-    (c, a * v[0] + b * v[1])
+    Ok((c, a * v[0] + b * v[1]))
 }

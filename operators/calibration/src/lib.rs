@@ -100,6 +100,27 @@ pub enum Error {
         /// Stance samples found.
         stance_samples: usize,
     },
+    /// A decomposition of the walk's geometry did not converge: the reports hold numbers no
+    /// sensor could have measured, which [`MAX_REPORT_RANGE_M`] did not catch.
+    #[error("the {what} could not be computed: the reports hold values no sensor could measure")]
+    NonFinite {
+        /// What could not be computed.
+        what: &'static str,
+    },
+    /// More than a tenth of a sensor's joint reports are positions no sensor could measure.
+    #[error(
+        "sensor {id:?}: {impossible} of its {reports} joint reports are positions no sensor could \
+         measure (not finite, behind it, or farther than {MAX_REPORT_RANGE_M} m): is the \
+         recording corrupted, or in other units than metres?"
+    )]
+    ImpossibleReports {
+        /// The sensor.
+        id: String,
+        /// Reports left out.
+        impossible: usize,
+        /// Its measured (tracked or inferred) reports.
+        reports: usize,
+    },
     /// No pair of sensors saw enough of the walk at the same time.
     #[error("no two sensors saw the walk together for {need} instants (best: {best})")]
     NoOverlap {
@@ -265,6 +286,9 @@ pub struct SensorResult {
     pub swapped_frames: usize,
     /// Frames whose handedness could not be checked (standing, turning, hips not tracked).
     pub unchecked_frames: usize,
+    /// Joint reports left out as impossible: not finite, behind the sensor, or farther than
+    /// [`MAX_REPORT_RANGE_M`].
+    pub impossible_reports: usize,
 }
 
 /// What kind of problem a [`Finding`] is.
@@ -282,6 +306,8 @@ pub enum FindingKind {
     LeftRightSwapped,
     /// A sensor disagrees with the others more than its noise allows.
     Inconsistent,
+    /// A sensor reported joints no sensor could have measured; they were left out.
+    ImpossibleReports,
 }
 
 /// A diagnosis, with the sensor it concerns and what to do.
@@ -338,10 +364,23 @@ struct Cleaned {
     frames: usize,
     swapped: usize,
     unchecked: usize,
+    impossible: usize,
+    /// Measured reports, impossible ones included.
+    reports: usize,
 }
 
 /// Speed below which the walking direction is too uncertain to check handedness, m/s.
 const MIN_HANDEDNESS_SPEED_MPS: f64 = 0.3;
+
+/// Most sweeps an SVD or an eigen-decomposition may take. nalgebra's plain `svd()` and
+/// `symmetric_eigen()` iterate until they converge, which a NaN or an overflow never does: a
+/// bounded one gives up and the caller treats the matrix as degenerate instead of hanging.
+pub(crate) const MAX_DECOMPOSITION_ITERATIONS: usize = 10_000;
+
+/// A joint reported farther from its sensor than this cannot have been measured, metres: a
+/// Kinect v2 reads depth to 8 m and tracks skeletons to about 4.5 m. Such reports (a corrupted
+/// file, a unit slip) are left out and counted, as are non-finite ones and ones behind it.
+pub const MAX_REPORT_RANGE_M: f64 = 20.0;
 /// Half-window over which the pelvis velocity is measured for the handedness check, seconds.
 const HANDEDNESS_WINDOW_SECS: f64 = 0.2;
 /// The hips must lie at least this far to one side to decide handedness, metres (hip joint
@@ -396,6 +435,7 @@ fn handedness(frames: &[TrackFrame]) -> Vec<Option<bool>> {
 }
 
 fn clean(track: &SensorTrack, joints: &[Joint]) -> Cleaned {
+    let (mut impossible, mut reports) = (0, 0);
     let mut frames: Vec<TrackFrame> = track
         .frames
         .iter()
@@ -405,10 +445,14 @@ fn clean(track: &SensorTrack, joints: &[Joint]) -> Cleaned {
             joints: f
                 .joints
                 .iter()
+                .filter(|s| s.is_measured())
                 .filter(|s| {
-                    s.is_measured()
-                        && s.position_in_kinect.coords.iter().all(|v| v.is_finite())
-                        && s.position_in_kinect.z > 0.0
+                    let p = s.position_in_kinect;
+                    // The norm of an overflowing coordinate is infinite, and NaN fails both.
+                    let possible = p.z > 0.0 && p.coords.norm() <= MAX_REPORT_RANGE_M;
+                    impossible += usize::from(!possible);
+                    reports += 1;
+                    possible
                 })
                 .copied()
                 .collect(),
@@ -448,6 +492,8 @@ fn clean(track: &SensorTrack, joints: &[Joint]) -> Cleaned {
         frames: frames.len(),
         swapped,
         unchecked,
+        impossible,
+        reports,
     }
 }
 
@@ -464,7 +510,8 @@ struct GridSample {
 ///
 /// # Errors
 /// See [`Error`]: fewer than two sensors, duplicate ids, a sensor missing from the rough rig,
-/// too little motion, no floor, no overlap between sensors.
+/// too little motion, no floor, no overlap between sensors; [`Error::ImpossibleReports`] when
+/// the calibration fails and a sensor's reports were more than a tenth impossible.
 pub fn calibrate(
     tracks: &[SensorTrack],
     initial: Initial<'_>,
@@ -480,13 +527,35 @@ pub fn calibrate(
             return Err(Error::DuplicateSensor { id: t.id.clone() });
         }
     }
+    let cleaned: Vec<Cleaned> = tracks.iter().map(|t| clean(t, &params.joints)).collect();
+    // Impossible reports are left out and the calibration goes on without them; if it then
+    // fails, a sensor with many of them is the likelier cause than what failed.
+    let impossible = tracks
+        .iter()
+        .zip(&cleaned)
+        .find(|(_, c)| 10 * c.impossible > c.reports)
+        .map(|(t, c)| Error::ImpossibleReports {
+            id: t.id.clone(),
+            impossible: c.impossible,
+            reports: c.reports,
+        });
+    calibrate_cleaned(tracks, cleaned, initial, params).map_err(|e| impossible.unwrap_or(e))
+}
+
+/// [`calibrate`] once the reports are cleaned.
+fn calibrate_cleaned(
+    tracks: &[SensorTrack],
+    cleaned: Vec<Cleaned>,
+    initial: Initial<'_>,
+    params: &Params,
+) -> Result<Calibration> {
+    let ns = tracks.len();
     let limits = Limits {
         max_gap_secs: params.max_gap_secs,
         max_speed_mps: params.max_joint_speed_mps,
     };
     let joints = &params.joints;
     let nj = joints.len();
-    let cleaned: Vec<Cleaned> = tracks.iter().map(|t| clean(t, joints)).collect();
     let (t0, t1) = cleaned
         .iter()
         .flat_map(|c| c.tracks.iter().flat_map(|t| t.t.iter().copied()))
@@ -624,9 +693,9 @@ pub fn calibrate(
             by_point.push(obs.len());
         }
     }
-    let counts: Vec<(usize, usize, usize)> = cleaned
+    let counts: Vec<(usize, usize, usize, usize)> = cleaned
         .iter()
-        .map(|c| (c.frames, c.swapped, c.unchecked))
+        .map(|c| (c.frames, c.swapped, c.unchecked, c.impossible))
         .collect();
     let track_refs: Vec<Vec<JointTrack>> = cleaned.into_iter().map(|c| c.tracks).collect();
     let mut problem = Problem {
@@ -743,6 +812,7 @@ pub fn calibrate(
             frames: counts[s].0,
             swapped_frames: counts[s].1,
             unchecked_frames: counts[s].2,
+            impossible_reports: counts[s].3,
         });
     }
     let findings = diagnose(&results, &gauge, params);
@@ -874,6 +944,18 @@ fn diagnose(results: &[SensorResult], gauge: &Gauge, params: &Params) -> Vec<Fin
     }
     for r in results {
         let id = Some(r.id.clone());
+        if r.impossible_reports > 0 {
+            out.push(Finding {
+                kind: FindingKind::ImpossibleReports,
+                sensor: id.clone(),
+                message: format!(
+                    "sensor {} reported {} joint position(s) no sensor could measure (not \
+                     finite, behind it, or farther than {MAX_REPORT_RANGE_M} m): left out; is \
+                     the recording corrupted, or in other units than metres?",
+                    r.id, r.impossible_reports
+                ),
+            });
+        }
         if r.world_from_kinect.is_none() {
             out.push(Finding {
                 kind: FindingKind::SawTooLittle,
@@ -1135,11 +1217,48 @@ mod tests {
             calibrate(&short, Initial::FromData, &Params::default()),
             Err(Error::TooLittleMotion { .. })
         ));
-        let mut nan = tracks;
-        for f in &mut nan[0].frames {
-            f.joints[0].position_in_kinect.x = f64::NAN;
+        // One joint of one sensor impossible in every frame (NaN, or finite but overflowing
+        // once squared, which hung an unbounded SVD): left out, counted and reported.
+        for bad in [f64::NAN, 1e300] {
+            let mut odd = tracks.clone();
+            for f in &mut odd[0].frames {
+                f.joints[0].position_in_kinect.x = bad;
+            }
+            let c = calibrate(&odd, Initial::FromData, &Params::default()).unwrap();
+            assert_eq!(c.sensors[0].impossible_reports, odd[0].frames.len());
+            assert_eq!(c.sensors[1].impossible_reports, 0);
+            assert!(
+                c.findings
+                    .iter()
+                    .any(|f| f.kind == FindingKind::ImpossibleReports
+                        && f.sensor.as_deref() == Some(odd[0].id.as_str())),
+                "{:?}",
+                c.findings
+            );
         }
-        assert!(calibrate(&nan, Initial::FromData, &Params::default()).is_ok());
+        // Every report of a sensor in millimetres: the others are calibrated without it, and
+        // the findings say why it was not; with one other sensor left nothing can be, and the
+        // error says why rather than what then failed.
+        let mut mm = tracks;
+        for f in &mut mm[0].frames {
+            for j in &mut f.joints {
+                j.position_in_kinect.coords *= 1000.0;
+            }
+        }
+        let c = calibrate(&mm, Initial::FromData, &Params::default()).unwrap();
+        assert!(c.sensors[0].world_from_kinect.is_none());
+        assert!(c.sensors[1..].iter().all(|s| s.world_from_kinect.is_some()));
+        assert_eq!(
+            c.findings[0].kind,
+            FindingKind::ImpossibleReports,
+            "{:?}",
+            c.findings
+        );
+        let e = calibrate(&mm[..2], Initial::FromData, &Params::default()).unwrap_err();
+        assert!(
+            matches!(&e, Error::ImpossibleReports { id, .. } if *id == mm[0].id),
+            "{e}"
+        );
     }
 
     /// The rig file's yaw/pitch/roll give back the rotation.
