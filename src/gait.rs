@@ -16,8 +16,9 @@ use trigait_skeleton::{Joint, MotionClip};
 /// Arguments of `trigait gait`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Motion file: C3D/TRC markers (joint centres are derived), or joint trajectories as trigait
-    /// exports them (C3D/TRC with joint-named markers, CSV).
+    /// Motion file: C3D/TRC markers (joint centres are derived), joint trajectories as trigait
+    /// exports them (C3D/TRC with joint-named markers, CSV), or Kinect v2 SDK skeleton text
+    /// (`.txt`).
     pub file: PathBuf,
     /// Gait-event detector: auto (coordinate method for walking, foot velocity for running),
     /// Zeni et al. 2008 coordinate method, or foot velocity.
@@ -334,6 +335,13 @@ pub fn load_input(
             path.display()
         );
     }
+    if keep_inferred {
+        eyre::bail!(
+            "--keep-inferred is for Kinect SDK skeleton text, whose joints carry a tracking \
+             state; {} has none",
+            path.display()
+        );
+    }
     let format = trigait_motion::MotionFormat::from_path(path)
         .map_err(|e| eyre::eyre!("{e}; Kinect SDK skeleton text (.txt) is read too"))?;
     if format == trigait_motion::MotionFormat::Csv {
@@ -349,6 +357,7 @@ pub fn load_input(
     let markers = trigait_motion::read_markers(path)
         .wrap_err_with(|| format!("reading markers from {}", path.display()))?;
     if let Some(clip) = trigait_motion::joints_from_labels(&markers) {
+        trigait_motion::check_clip_scale(path, &clip)?;
         let landmarks = trigait_gait::Landmarks::from_clip(&clip)?;
         return Ok(GaitInput {
             filter: trigait_gait::filter::skeleton_filter(landmarks.rate_hz),
@@ -360,6 +369,7 @@ pub fn load_input(
     if joint_centres {
         let clip = trigait_motion::joint_centres(&markers)
             .wrap_err_with(|| format!("placing joint centres from {}", path.display()))?;
+        trigait_motion::check_clip_scale(path, &clip)?;
         let landmarks = trigait_gait::Landmarks::from_clip(&clip)?;
         return Ok(GaitInput {
             clip: Some(clip),
@@ -370,6 +380,16 @@ pub fn load_input(
     }
     let feet = trigait_motion::foot_markers(&markers)
         .wrap_err_with(|| format!("finding heel and pelvis markers in {}", path.display()))?;
+    let legs: Vec<f64> = feet
+        .heel
+        .iter()
+        .flat_map(|heel| {
+            heel.iter()
+                .zip(&feet.pelvis)
+                .filter_map(|(h, p)| Some((h.as_ref()? - p.as_ref()?).norm()))
+        })
+        .collect();
+    trigait_motion::check_leg_scale(path, legs, "from the pelvis markers to the heel marker")?;
     let mut notes = vec![format!(
         "skin markers: events and step width from heel and toe markers ({})",
         feet.labels.join(", ")
@@ -444,8 +464,18 @@ pub fn analyse_file(args: &Args) -> eyre::Result<(GaitInput, GaitAnalysis)> {
         filter,
         ..gait_params(args)
     };
-    let analysis = trigait_gait::analyse_landmarks(&input.landmarks, &params)
-        .wrap_err_with(|| format!("analysing the gait in {}", args.file.display()))?;
+    let analysis = match trigait_gait::analyse_landmarks(&input.landmarks, &params) {
+        Ok(a) => a,
+        Err(e) => {
+            // What the reading noticed (a cut-off last line, swapped sides, inferred joints
+            // dropped) may be why: said before the error rather than lost with the table.
+            for note in &input.notes {
+                eprintln!("note: {note}");
+            }
+            return Err(e)
+                .wrap_err_with(|| format!("analysing the gait in {}", args.file.display()));
+        }
+    };
     Ok((input, analysis))
 }
 

@@ -40,7 +40,8 @@ enum Command {
     Eval(eval::Args),
     /// Kinect v2 depth accuracy: the thesis's five depth metrics, maps, and a multi-sensor floor check.
     DepthMetrics(depth_metrics::Args),
-    /// Gait events and spatiotemporal parameters (stride, step, cadence, speed, stance) of a C3D/TRC walk.
+    /// Gait events and spatiotemporal parameters (stride, step, cadence, speed, stance) of a walk:
+    /// C3D/TRC markers, joint trajectories (C3D/TRC/CSV) or Kinect SDK skeleton text.
     Gait(gait::Args),
     /// Export joint trajectories as TRC (OpenSim), C3D or CSV.
     Export(export::Args),

@@ -193,3 +193,87 @@ fn eval_with_nothing_solvable_is_an_error() {
         assert!(!stdout.contains("NaN"), "{stdout}");
     }
 }
+
+/// A recording whose frames carry no server stamp (no `sync` ahead of the recorder) is refused
+/// with that reason, not with "too little motion", whether the directory or its frames file is
+/// given; the simulation's options beside `--recording` are refused, not ignored.
+#[test]
+fn calibrate_says_what_a_recording_lacks() {
+    let dir = scratch("unsynced");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut text = format!("{}\n", trigait_recording::FRAMES_HEADER);
+    for seq in 0..30_i64 {
+        for sensor in ["k1", "k2"] {
+            text.push_str(&format!(
+                "{sensor},{seq},{},,,,,,,hip_left,0.1,0.2,2.5,2\n",
+                seq * 33_333_333
+            ));
+        }
+    }
+    let frames = dir.join(trigait_recording::FRAMES_FILE);
+    std::fs::write(&frames, text).unwrap();
+    for given in [&dir, &frames] {
+        let (out, elapsed) = trigait(&["calibrate", "--recording", given.to_str().unwrap()]);
+        assert_clean_failure(
+            &out,
+            "none of its 60 frames has a server stamp",
+            &given.display().to_string(),
+        );
+        assert!(elapsed < Duration::from_secs(5), "took {elapsed:?}");
+    }
+    let (out, _) = trigait(&[
+        "calibrate",
+        "--recording",
+        dir.to_str().unwrap(),
+        "--laps",
+        "3",
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert_clean_failure(&out, "cannot be used with", "--laps beside --recording");
+}
+
+/// A walk in millimetres whose file says metres is refused, naming the likely unit, by the
+/// commands that read motion; the same walk in metres is read.
+#[test]
+fn a_walk_in_millimetres_is_named_as_such() {
+    let clip = trigait_motion::walker(&trigait_motion::WalkerParams::default(), 4.0, 30.0).unwrap();
+    let metres = scratch("walk_m.csv");
+    trigait_motion::write_csv(&metres, &clip).unwrap();
+    let text = std::fs::read_to_string(&metres).unwrap();
+    let mut lines = text.lines();
+    let mut scaled = format!("{}\n", lines.next().unwrap());
+    for line in lines {
+        let cells: Vec<String> = line
+            .split(',')
+            .enumerate()
+            .map(|(i, c)| match c.parse::<f64>() {
+                Ok(v) if i >= 2 => format!("{:.3}", v * 1000.0),
+                _ => c.to_owned(),
+            })
+            .collect();
+        scaled.push_str(&cells.join(","));
+        scaled.push('\n');
+    }
+    let millimetres = scratch("walk_mm.csv");
+    std::fs::write(&millimetres, scaled).unwrap();
+    let out_file = scratch("walk_out.trc");
+    let mm = millimetres.to_str().unwrap();
+    for args in [
+        vec!["gait", mm],
+        vec!["export", mm, "-o", out_file.to_str().unwrap()],
+    ] {
+        let (out, _) = trigait(&args);
+        assert_clean_failure(
+            &out,
+            "are the coordinates in millimetres?",
+            &format!("{args:?}"),
+        );
+    }
+    let (out, _) = trigait(&[
+        "export",
+        metres.to_str().unwrap(),
+        "-o",
+        out_file.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+}

@@ -821,7 +821,12 @@ pub(crate) fn analyse_detection(d: Detection, params: &GaitParams) -> Result<Gai
         });
     }
     let summary = summarise_with_steps(&strides, &steps);
-    let timing = crate::timing::check(&events, &steps, rate);
+    let walking_speeds: Vec<f64> = if d.running {
+        Vec::new()
+    } else {
+        strides.iter().map(|s| s.speed_mps).collect()
+    };
+    let timing = crate::timing::check(&events, &steps, &walking_speeds, rate);
     Ok(GaitAnalysis {
         rate_hz: rate,
         duration_secs: d.tracks.len().saturating_sub(1) as f64 / rate,

@@ -56,16 +56,24 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
     if a.timing.implausible {
         out.push(format!(
             "TIMING IMPLAUSIBLE at {:.0} Hz: median swing {} over {} swings, median step {} over \
-             {} steps; no human leg swings in under {:.2} s or steps in under {:.2} s, so the \
-             file's time base is probably wrong and every duration, cadence and speed with it; \
+             {} steps{}; no human leg swings in under {:.2} s or steps in under {:.2} s, and \
+             nobody walks faster than {} m/s with a foot always on the floor, so the file's \
+             time base is probably wrong and every duration, cadence and speed with it; \
              {}(for untimed Kinect text, give the true frame rate: `trigait gait --rate`)",
             a.rate_hz,
             seconds(a.timing.median_swing_secs),
             a.timing.swings,
             seconds(a.timing.median_step_secs),
             a.timing.steps,
+            a.timing
+                .median_walking_speed_mps
+                .map_or_else(String::new, |v| format!(
+                    ", median walking speed {v:.2} m/s over {} strides",
+                    a.timing.walking_strides
+                )),
             crate::timing::MIN_HUMAN_SWING_SECS,
             crate::timing::MIN_HUMAN_STEP_SECS,
+            crate::timing::MAX_HUMAN_WALKING_SPEED_MPS,
             human_rate(&a.timing).map_or_else(String::new, |hz| format!(
                 "its rhythm is human only if it was logged at about {hz:.0} Hz or less "
             )),
@@ -106,6 +114,16 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
         ),
         None => "overground".to_owned(),
     });
+    if let Some(t) = a
+        .treadmill
+        .filter(|t| t.declared && t.pelvis_travel_m > crate::treadmill::MAX_PELVIS_TRAVEL_M)
+    {
+        out.push(format!(
+            "the pelvis went {:.1} m from where it started, which it does not on a treadmill: is \
+             this an overground walk? (declared a treadmill, it was corrected as one)",
+            t.pelvis_travel_m
+        ));
+    }
     out.push(format!("step width from {}", a.heel_source.name()));
     out
 }

@@ -9,7 +9,10 @@
 //! 0.35 s, because faster runners press harder on the ground rather than swing their legs
 //! faster (Weyand et al. 2000). Step frequency tops out near 5 steps/s in elite sprinting. A
 //! median swing shorter than [`MIN_HUMAN_SWING_SECS`], or a median step shorter than
-//! [`MIN_HUMAN_STEP_SECS`], therefore says the clock is wrong, not the walker.
+//! [`MIN_HUMAN_STEP_SECS`], therefore says the clock is wrong, not the walker. So does a walk
+//! (no flight phase) faster than [`MAX_HUMAN_WALKING_SPEED_MPS`]: a clock running ten times
+//! fast turns a stroll into a sprint's rhythm, which a swing and a step still allow, but at
+//! 6 m/s with a foot always on the floor.
 //!
 //! The check only flags; it does not guess the true rate. Estimating a rate from gait norms
 //! would make every figure then read from the file a restatement of those norms. It does say
@@ -33,6 +36,11 @@ pub const MIN_HUMAN_SWING_SECS: f64 = 0.25;
 /// Shortest median step (s): well under the ≈0.2 s of elite sprinting (5 steps/s).
 pub const MIN_HUMAN_STEP_SECS: f64 = 0.15;
 
+/// Fastest median speed (m/s) of a walk, a foot always on the floor: elite race walkers hold
+/// about 4.35 m/s over 20 km (the world record, 1 h 16 min 36 s), and faster than that a
+/// person runs, with flight phases.
+pub const MAX_HUMAN_WALKING_SPEED_MPS: f64 = 4.5;
+
 /// Fewest swings (or steps) a median needs before it is judged.
 const MIN_SAMPLES: usize = 2;
 
@@ -48,12 +56,19 @@ pub struct Timing {
     pub steps: usize,
     /// Their median duration (s).
     pub median_step_secs: Option<f64>,
+    /// Strides of a walk (no flight phase in the clip) whose speed was measured.
+    #[serde(default)]
+    pub walking_strides: usize,
+    /// Their median speed (m/s).
+    #[serde(default)]
+    pub median_walking_speed_mps: Option<f64>,
     /// Whether the swings or steps are shorter than a human leg can make them
-    /// ([`MIN_HUMAN_SWING_SECS`], [`MIN_HUMAN_STEP_SECS`]): the clip's time base is then
-    /// probably wrong.
+    /// ([`MIN_HUMAN_SWING_SECS`], [`MIN_HUMAN_STEP_SECS`]), or the walk faster than a person
+    /// walks ([`MAX_HUMAN_WALKING_SPEED_MPS`]): the clip's time base is then probably wrong.
     pub implausible: bool,
     /// The highest frame rate (Hz) at which the median swing and step, counted in frames,
-    /// would still last [`MIN_HUMAN_SWING_SECS`] and [`MIN_HUMAN_STEP_SECS`]: at or above the
+    /// would still last [`MIN_HUMAN_SWING_SECS`] and [`MIN_HUMAN_STEP_SECS`] (and the walk be
+    /// no faster than [`MAX_HUMAN_WALKING_SPEED_MPS`]): at or above the
     /// clip's rate when its rhythm is human, and an upper bound on the true rate when it is
     /// not. `None` when neither median was measured.
     #[serde(default)]
@@ -79,19 +94,32 @@ fn swings(events: &[GaitEvent]) -> Vec<f64> {
     out
 }
 
-/// Judges the rhythm of `events` and `steps`, timed at `rate_hz` frames per second.
+/// Judges the rhythm of `events` and `steps`, and the speed of a walk's strides
+/// (`walking_speeds`, m/s: empty when the clip is running), timed at `rate_hz` frames per
+/// second.
 #[must_use]
-pub fn check(events: &[GaitEvent], steps: &[Step], rate_hz: f64) -> Timing {
+pub fn check(events: &[GaitEvent], steps: &[Step], walking_speeds: &[f64], rate_hz: f64) -> Timing {
     let mut swing = swings(events);
     let mut step: Vec<f64> = steps.iter().map(|s| s.step_time_secs).collect();
-    let (swings, steps) = (swing.len(), step.len());
+    let mut speed: Vec<f64> = walking_speeds
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
+    let (swings, steps, walking_strides) = (swing.len(), step.len(), speed.len());
     let median_swing_secs = (swings >= MIN_SAMPLES).then(|| crate::clean::median(&mut swing));
     let median_step_secs = (steps >= MIN_SAMPLES).then(|| crate::clean::median(&mut step));
+    let median_walking_speed_mps =
+        (walking_strides >= MIN_SAMPLES).then(|| crate::clean::median(&mut speed));
     let implausible = median_swing_secs.is_some_and(|s| s < MIN_HUMAN_SWING_SECS)
-        || median_step_secs.is_some_and(|s| s < MIN_HUMAN_STEP_SECS);
+        || median_step_secs.is_some_and(|s| s < MIN_HUMAN_STEP_SECS)
+        || median_walking_speed_mps.is_some_and(|v| v > MAX_HUMAN_WALKING_SPEED_MPS);
     let highest_human_rate_hz = [
         median_swing_secs.map(|s| rate_hz * s / MIN_HUMAN_SWING_SECS),
         median_step_secs.map(|s| rate_hz * s / MIN_HUMAN_STEP_SECS),
+        median_walking_speed_mps
+            .filter(|v| *v > 0.0)
+            .map(|v| rate_hz * MAX_HUMAN_WALKING_SPEED_MPS / v),
     ]
     .into_iter()
     .flatten()
@@ -101,6 +129,8 @@ pub fn check(events: &[GaitEvent], steps: &[Step], rate_hz: f64) -> Timing {
         median_swing_secs,
         steps,
         median_step_secs,
+        walking_strides,
+        median_walking_speed_mps,
         implausible,
         highest_human_rate_hz,
     }
@@ -141,7 +171,7 @@ mod tests {
             }
             v
         };
-        let real = check(&walk(1.0), &[], 100.0);
+        let real = check(&walk(1.0), &[], &[], 100.0);
         assert_eq!(real.swings, 7, "{real:?}");
         assert!((real.median_swing_secs.unwrap() - 0.44).abs() < 1e-9);
         assert!(!real.implausible);
@@ -150,7 +180,7 @@ mod tests {
             (bound - 100.0 * 0.44 / MIN_HUMAN_SWING_SECS).abs() < 1e-9,
             "{bound}"
         );
-        let fast = check(&walk(3.0), &[], 100.0);
+        let fast = check(&walk(3.0), &[], &[], 100.0);
         assert!(fast.implausible, "{fast:?}");
         let fast_bound = fast.highest_human_rate_hz.unwrap();
         assert!(fast_bound < 100.0, "{fast:?}");
@@ -177,7 +207,7 @@ mod tests {
             step_length_m: None,
             step_width_m: None,
         };
-        let t = check(&events, &[step(0.0), step(0.5), step(1.0)], 100.0);
+        let t = check(&events, &[step(0.0), step(0.5), step(1.0)], &[], 100.0);
         assert!(t.implausible, "{t:?}");
         let bound = t.highest_human_rate_hz.unwrap();
         assert!(
@@ -197,10 +227,31 @@ mod tests {
         let mut strike = event(Foot::Right, EventKind::HeelStrike, 0.3);
         strike.segment = 1;
         events.push(strike);
-        let t = check(&events, &[], 100.0);
+        let t = check(&events, &[], &[], 100.0);
         assert_eq!(t.swings, 1);
         assert_eq!(t.median_swing_secs, None);
         assert!(!t.implausible);
         assert_eq!(t.highest_human_rate_hz, None);
+    }
+
+    /// A walk at 1.3 m/s passes; the same strides on a clock running five times fast walk at
+    /// 6.5 m/s with a foot always on the floor, which nobody does, and the bound on the true
+    /// rate is a fifth of the one at the right clock. A run (no walking speeds given) is not
+    /// judged by speed.
+    #[test]
+    fn a_walk_faster_than_anyone_walks_is_flagged() {
+        let real = check(&[], &[], &[1.3, 1.25, 1.35], 30.0);
+        assert_eq!(real.walking_strides, 3);
+        assert!(!real.implausible, "{real:?}");
+        let bound = real.highest_human_rate_hz.unwrap();
+        assert!((bound - 30.0 * MAX_HUMAN_WALKING_SPEED_MPS / 1.3).abs() < 1e-9);
+        let fast = check(&[], &[], &[6.5, 6.25, 6.75], 150.0);
+        assert!(fast.implausible, "{fast:?}");
+        let fast_bound = fast.highest_human_rate_hz.unwrap();
+        assert!(
+            fast_bound < 150.0 && (fast_bound - bound).abs() < 1e-9,
+            "{fast:?}"
+        );
+        assert!(!check(&[], &[], &[], 150.0).implausible);
     }
 }

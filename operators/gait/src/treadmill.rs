@@ -7,8 +7,9 @@
 //! parameters then apply unchanged, and stride length, step length and speed come out
 //! belt-corrected: the distance the walker would have covered on the floor.
 //!
-//! **Detection** ([`TreadmillMode::Auto`]): the pelvis travels less than
-//! [`MAX_PELVIS_TRAVEL_M`] over the clip, while both heels swing back and forth relative to it
+//! **Detection** ([`TreadmillMode::Auto`]): the pelvis stays within [`MAX_PELVIS_TRAVEL_M`]
+//! of where it started throughout the clip (a walk out and back ends where it began, but it
+//! went somewhere), while both heels swing back and forth relative to it
 //! by at least [`MIN_FOOT_EXCURSION_M`] along one horizontal axis (periodic feet), the feet
 //! pass each other along that axis (each is ahead of the other by at least
 //! [`MIN_PASSING_M`] at times: walking, not a leg moved out to the side and back) and the stance
@@ -52,9 +53,14 @@ pub struct Treadmill {
     pub walking_direction: [f64; 2],
     /// Stance samples the estimate rests on (0 when the speed was given).
     pub stance_samples: usize,
+    /// Farthest the pelvis went from where it started, horizontally (m): under
+    /// [`MAX_PELVIS_TRAVEL_M`] on a treadmill, so more, on a declared one, says the walk
+    /// probably went over the ground.
+    #[serde(default)]
+    pub pelvis_travel_m: f64,
 }
 
-/// The pelvis moves less than this (m, horizontal, over the whole clip) on a treadmill.
+/// The pelvis stays within this (m, horizontally) of where it started on a treadmill.
 pub const MAX_PELVIS_TRAVEL_M: f64 = 0.5;
 /// Each heel's back-and-forth excursion relative to the pelvis (5th–95th percentile range along
 /// the walking axis) is at least this on a treadmill (m): half a normal stride is ≈ 0.6 m.
@@ -140,10 +146,11 @@ pub(crate) fn correct(
         .flatten()
         .map(|p| Vector2::new(p.x, p.y))
         .collect();
-    let travel = match (pelvis.first(), pelvis.last()) {
-        (Some(a), Some(b)) => (b - a).norm(),
-        _ => return None,
-    };
+    let first = pelvis.first()?;
+    let travel = pelvis
+        .iter()
+        .map(|p| (p - first).norm())
+        .fold(0.0, f64::max);
     if !declared && travel > MAX_PELVIS_TRAVEL_M {
         return None;
     }
@@ -228,5 +235,6 @@ pub(crate) fn correct(
         speed_estimated,
         walking_direction: [walking.x, walking.y],
         stance_samples: if speed_estimated { stance_samples } else { 0 },
+        pelvis_travel_m: travel,
     })
 }

@@ -78,6 +78,94 @@ fn treadmill_matches_overground() {
     assert!(b.summary.strides + 1 >= a.summary.strides);
 }
 
+/// A walk out and back ends where it began, but it went somewhere: no treadmill. On a clock
+/// running ten times fast (a stroll played as a 13 m/s dash, through the 6 Hz skeleton filter,
+/// which then smooths the stance feet into the body's motion) it was taken for one on a 12 m/s
+/// belt when the pelvis was judged by where it ended alone. Now the clip is never a treadmill,
+/// and what comes out is an error or a flagged time base.
+#[test]
+fn out_and_back_is_no_treadmill_at_any_clock() {
+    let walk = Walk {
+        duration_secs: 10.0,
+        ..Walk::default()
+    };
+    let (out, _) = walk.build();
+    let pelvis = |i: usize| {
+        let (l, r) = (
+            out.position(i, Joint::HipLeft).unwrap(),
+            out.position(i, Joint::HipRight).unwrap(),
+        );
+        nalgebra::center(&l, &r)
+    };
+    let middle = nalgebra::center(&pelvis(0), &pelvis(out.frame_count() - 1));
+    // Back: the same walk turned 180° about the vertical through the middle of the path.
+    let back = mapped(&out, |_, _, p| {
+        Point3::new(2.0 * middle.x - p.x, 2.0 * middle.y - p.y, p.z)
+    });
+    let n = out.frame_count();
+    let frames: Vec<Vec<Option<Point3<f64>>>> = (0..2 * n)
+        .map(|i| {
+            let (clip, k) = if i < n { (&out, i) } else { (&back, i - n) };
+            clip.joints().iter().map(|j| clip.position(k, *j)).collect()
+        })
+        .collect();
+    for scale in [1.0, 10.0] {
+        let rate = walk.rate_hz * scale;
+        let clip = MotionClip::new("lap", rate, out.joints().to_vec(), frames.clone()).unwrap();
+        let params = GaitParams {
+            filter: trigait_gait::filter::skeleton_filter(rate),
+            ..GaitParams::default()
+        };
+        match analyse(&clip, &params) {
+            Ok(a) => {
+                assert!(a.treadmill.is_none(), "at {scale}x: {:?}", a.treadmill);
+                assert_eq!(
+                    a.timing.implausible,
+                    scale > 1.0,
+                    "at {scale}x: {:?}",
+                    a.timing
+                );
+            }
+            Err(e) => assert!(scale > 1.0, "at {scale}x: {e}"),
+        }
+    }
+}
+
+/// A treadmill declared on an overground walk (with a slow belt: left to estimate it, the
+/// swinging heels near the floor read as a belt and the walk may come out standing) is
+/// corrected as declared, but the notes say the pelvis went somewhere, which it does not on a
+/// treadmill.
+#[test]
+fn a_treadmill_declared_overground_is_questioned() {
+    let walk = Walk {
+        duration_secs: 6.0,
+        ..Walk::default()
+    };
+    let (over, _) = walk.build();
+    let params = GaitParams {
+        treadmill: trigait_gait::TreadmillMode::Treadmill {
+            belt_speed_mps: Some(0.1),
+        },
+        ..GaitParams::default()
+    };
+    let a = analyse(&over, &params).unwrap();
+    let t = a.treadmill.expect("declared");
+    assert!(t.declared && t.pelvis_travel_m > 5.0, "{t:?}");
+    let notes = trigait_gait::report::quality_notes(&[], &a);
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.contains("is this an overground walk?")),
+        "{notes:?}"
+    );
+    let on_belt = analyse(&over, &GaitParams::default()).unwrap();
+    assert!(
+        !trigait_gait::report::quality_notes(&[], &on_belt)
+            .iter()
+            .any(|n| n.contains("overground walk?"))
+    );
+}
+
 /// A running walker (35 % stance, flight phases): running is detected, the velocity method is
 /// chosen, and its events are within 25 ms of the truth.
 #[test]

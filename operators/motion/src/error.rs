@@ -111,6 +111,24 @@ pub enum Error {
         /// The valid range or the constraint that failed.
         reason: &'static str,
     },
+    /// The legs come out at a length no person's are: the coordinates are in other units than
+    /// the file says.
+    #[error(
+        "{path}: the legs measure {leg_m:.3} m {what} (median of {samples} legs over the \
+         frames), which no person's do (0.2-1.5 m){hint}"
+    )]
+    ImplausibleScale {
+        /// The file.
+        path: PathBuf,
+        /// Median leg length, in the file's stated units as metres.
+        leg_m: f64,
+        /// How the leg was measured.
+        what: &'static str,
+        /// Legs measured (two a frame at most).
+        samples: usize,
+        /// What the units probably are.
+        hint: &'static str,
+    },
     /// c3dio could not write the file.
     #[error("{path}: cannot write C3D: {reason}")]
     C3dWrite {

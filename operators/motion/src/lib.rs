@@ -158,16 +158,79 @@ pub fn joints_from_labels(markers: &MarkerSet) -> Option<MotionClip> {
 /// centres by [`joint_centres`]. The clip keeps the file's origin (floor at z = 0).
 ///
 /// # Errors
-/// [`Error::UnknownExtension`], any reader error, or [`Error::MissingMarker`] when skin markers
-/// lack the pelvis or leg markers the joint centres need.
+/// [`Error::UnknownExtension`], any reader error, [`Error::MissingMarker`] when skin markers
+/// lack the pelvis or leg markers the joint centres need, or [`Error::ImplausibleScale`] when
+/// the legs come out at no person's length (a file in millimetres that says metres).
 pub fn load_motion(path: impl AsRef<Path>) -> Result<MotionClip> {
     let path = path.as_ref();
-    if MotionFormat::from_path(path)? == MotionFormat::Csv {
-        return read_csv(path);
+    let clip = if MotionFormat::from_path(path)? == MotionFormat::Csv {
+        read_csv(path)?
+    } else {
+        let markers = read_markers(path)?;
+        match joints_from_labels(&markers) {
+            Some(clip) => clip,
+            None => joint_centres(&markers)?,
+        }
+    };
+    check_clip_scale(path, &clip)?;
+    Ok(clip)
+}
+
+/// Shortest and longest leg (hip to ankle, metres) of anyone walking: a toddler's is about
+/// 0.25 m, the tallest adults' about 1.3 m.
+const LEG_RANGE_M: (f64, f64) = (0.2, 1.5);
+
+/// Refuses a clip (read from `path`) whose legs, hip over knee to ankle, measure no person's
+/// length; see [`check_leg_scale`].
+///
+/// # Errors
+/// [`Error::ImplausibleScale`].
+pub fn check_clip_scale(path: &Path, clip: &MotionClip) -> Result<()> {
+    let mut legs: Vec<f64> = Vec::new();
+    for f in 0..clip.frame_count() {
+        for [hip, knee, ankle] in [
+            [Joint::HipLeft, Joint::KneeLeft, Joint::AnkleLeft],
+            [Joint::HipRight, Joint::KneeRight, Joint::AnkleRight],
+        ] {
+            if let (Some(h), Some(k), Some(a)) = (
+                clip.position(f, hip),
+                clip.position(f, knee),
+                clip.position(f, ankle),
+            ) {
+                legs.push((h - k).norm() + (k - a).norm());
+            }
+        }
     }
-    let markers = read_markers(path)?;
-    match joints_from_labels(&markers) {
-        Some(clip) => Ok(clip),
-        None => joint_centres(&markers),
+    check_leg_scale(path, legs, "from hip over knee to ankle")
+}
+
+/// Refuses a file whose legs (`legs`, measured as `what` says, metres by the file's stated
+/// units) measure no person's length, naming the likely unit: a unit slip (millimetres
+/// written as metres) otherwise reads as a walk a thousand times too long, which the gait
+/// analysis reports as no walking at all or as impossible speeds. No legs: nothing to judge.
+///
+/// # Errors
+/// [`Error::ImplausibleScale`] when the median leg lies outside 0.2–1.5 m.
+pub fn check_leg_scale(path: &Path, mut legs: Vec<f64>, what: &'static str) -> Result<()> {
+    legs.retain(|l| l.is_finite());
+    if legs.is_empty() {
+        return Ok(());
     }
+    legs.sort_by(f64::total_cmp);
+    let leg_m = legs[legs.len() / 2];
+    if (LEG_RANGE_M.0..=LEG_RANGE_M.1).contains(&leg_m) {
+        return Ok(());
+    }
+    let hint = match leg_m {
+        l if (200.0..=1500.0).contains(&l) => ": are the coordinates in millimetres?",
+        l if (20.0..=150.0).contains(&l) => ": are the coordinates in centimetres?",
+        _ => "",
+    };
+    Err(Error::ImplausibleScale {
+        path: path.to_path_buf(),
+        leg_m,
+        what,
+        samples: legs.len(),
+        hint,
+    })
 }
