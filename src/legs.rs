@@ -56,6 +56,11 @@ pub struct Args {
     /// Print the JSON report on stdout instead of the table.
     #[arg(long)]
     json: bool,
+    /// Track every frame on its own, with a fresh tracker (the floor fitted or taken afresh,
+    /// nothing learned carried over): for frames of different sensors or sessions, which a
+    /// sequence would follow as one person seen by one sensor.
+    #[arg(long)]
+    separately: bool,
 }
 
 #[derive(Debug, Serialize)]
@@ -147,11 +152,14 @@ pub fn run(args: &Args) -> eyre::Result<()> {
             .wrap_err_with(|| format!("creating --out {}", out.display()))?;
     }
     let camera = config.camera;
-    let mut tracker = LegTracker::new(config).wrap_err("the tracker's configuration")?;
+    let mut tracker = LegTracker::new(config.clone()).wrap_err("the tracker's configuration")?;
     let mut results = Vec::with_capacity(files.len());
     let bar = progress(files.len(), "tracking")?;
     for file in &files {
         bar.inc(1);
+        if args.separately {
+            tracker = LegTracker::new(config.clone()).wrap_err("the tracker's configuration")?;
+        }
         // One file alone must be a depth frame; in a sequence, a file that is not is listed
         // in its place and the others are still tracked (the run then ends with an error).
         let depth = match read_depth_png_as_recorded(file) {
@@ -297,6 +305,7 @@ fn summary(results: &[(&PathBuf, Outcome)]) -> String {
         Status::Tracking,
         Status::NoStature,
         Status::TooClose,
+        Status::NotStanding,
     ]
     .map(|s| (status_name(s), 0))
     .into();
@@ -348,6 +357,16 @@ fn table(file: &Path, t: &TrackedFrame, iou: Option<f64>) -> String {
     );
     if let Some(iou) = iou {
         s += &format!(", IoU with the mask {iou:.3}");
+    }
+    if t.status == Status::NotStanding
+        && let Some(share) = t.reaching_share
+    {
+        s += &format!(
+            ", {:.0} % of the person's points at thigh height reach out from under the trunk (seated or crouching): no leg joints",
+            100.0 * share
+        );
+    } else if t.status == Status::Tracking && t.joints.is_empty() {
+        s += ", no two legs found under the hips in this frame";
     }
     if t.body_relearned {
         s += ", the stature changed (someone else, someone who stood up, or a hand over the head): the body is learned afresh";

@@ -101,6 +101,7 @@ pub fn status_name(status: Status) -> &'static str {
         Status::Tracking => "tracking",
         Status::NoStature => "no_stature",
         Status::TooClose => "too_close",
+        Status::NotStanding => "not_standing",
     }
 }
 

@@ -14,7 +14,10 @@
 //!    components continuous in depth. Person-like components (standing on the floor, head
 //!    height, body-sized) are counted; the one nearest to the last position is followed, with
 //!    the pieces of it that occlusion cut off (a lower leg seen past the other leg, its knee
-//!    hidden), each of which goes whole to one leg.
+//!    hidden), each of which goes whole to one leg. A person whose thighs reach out from under
+//!    the trunk (seated, crouching) is said not to stand, and no legs are fitted
+//!    ([`posture`]); the stature of someone who has stood up is learned once their top stops
+//!    rising.
 //! 3. **Legs.** The model is two chains hip → knee → ankle of straight segments; each point
 //!    below the hip goes to the leg whose predicted axis is nearer, so the legs keep their
 //!    identities when they cross ([`legs`] fits one leg, [`chains`] both of a frame). The hip
@@ -57,6 +60,7 @@
 
 mod chains;
 mod legs;
+mod posture;
 pub mod segment;
 
 use nalgebra::{Isometry3, Point3, Vector2, Vector3};
@@ -227,6 +231,11 @@ pub struct TrackerConfig {
     pub tracked_share: f64,
     /// Frames a leg is kept from the model (inferred) without a fit before it is dropped.
     pub max_inferred_frames: usize,
+    /// From this share of a person's points at thigh height reaching out from under the trunk,
+    /// the person is taken as not standing (seated, crouching) and no leg joints are reported
+    /// ([`Status::NotStanding`]): 0.2, where walking reaches 0.06 and sitting 0.26 and more.
+    /// Above 1 the person is always taken as standing.
+    pub not_standing_share: f64,
 }
 
 impl TrackerConfig {
@@ -258,6 +267,7 @@ impl Default for TrackerConfig {
             min_band_points: 6,
             tracked_share: 0.5,
             max_inferred_frames: 15,
+            not_standing_share: 0.2,
         }
     }
 }
@@ -282,6 +292,10 @@ pub enum Status {
     /// sensor for their legs to be seen (a Kinect v2 a metre up, looking level, sees the floor
     /// only from about 1.7 m out).
     TooClose,
+    /// A person was segmented who does not stand on their legs: at thigh height they reach
+    /// out from under the trunk (seated, crouching), which the standing leg model cannot fit,
+    /// so no leg joints are reported ([`TrackedFrame::reaching_share`]).
+    NotStanding,
 }
 
 /// One joint of the output.
@@ -336,6 +350,11 @@ pub struct TrackedFrame {
     /// be learned afresh: the person found again is someone else (their stature differs), or
     /// the person stands taller than the stature held (it was learned while they sat).
     pub body_relearned: bool,
+    /// The share of the person's points at thigh height that reach out from under the trunk
+    /// (more than 0.3 m across the floor from the middle of the upper body): a few hundredths
+    /// standing or walking, a quarter and more seated; `None` without a person, or with too
+    /// few points to tell.
+    pub reaching_share: Option<f64>,
 }
 
 impl TrackedFrame {
@@ -356,6 +375,7 @@ impl TrackedFrame {
             floor_refitted: false,
             floor_doubted_frames: 0,
             body_relearned: false,
+            reaching_share: None,
         }
     }
 
@@ -470,6 +490,13 @@ const STANDING_TALLER_FRAMES: usize = 30;
 /// seated stands 0.4 m taller; walking, the head bobs by about ±2.5 cm.
 const STANDING_TALLER_M: f64 = 0.1;
 
+/// A person who has just stood up ([`Status::NotStanding`] before) keeps rising for a second or
+/// so, their top with them; the stature is learned once the last this many tops ...
+const SETTLE_FRAMES: usize = 10;
+/// ... lie within this, metres (a third of a second; walking, the head bobs by about ±2.5 cm
+/// over a step of half a second).
+const SETTLED_M: f64 = 0.03;
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -534,6 +561,9 @@ pub struct LegTracker {
     /// The tops of the last [`STANDING_TALLER_FRAMES`] frames with the head and the whole body
     /// in view, while the stature is held.
     recent_tops: std::collections::VecDeque<f64>,
+    /// While no body is held and the person has just stood up: their last tops, until
+    /// [`SETTLE_FRAMES`] of them lie within [`SETTLED_M`] (the stature is learned from then).
+    settling: Option<std::collections::VecDeque<f64>>,
     /// Bodies learned afresh so far, for someone else found or someone who stood up.
     relearns: usize,
     /// Frames in a row without the person followed.
@@ -576,6 +606,13 @@ impl LegTracker {
                 expected: "a share within 0–1",
             });
         }
+        if config.not_standing_share.is_nan() || config.not_standing_share <= 0.0 {
+            return Err(Error::BadParameter {
+                name: "not_standing_share",
+                value: config.not_standing_share,
+                expected: "a share above 0 (above 1: never)",
+            });
+        }
         let mut rays = Vec::with_capacity(PIXELS);
         for v in 0..HEIGHT {
             for u in 0..WIDTH {
@@ -606,6 +643,7 @@ impl LegTracker {
             held: None,
             recheck: None,
             recent_tops: std::collections::VecDeque::new(),
+            settling: None,
             relearns: 0,
             absent: 0,
             learning_since: 0,
@@ -702,6 +740,28 @@ impl LegTracker {
                 self.learn_body_afresh(Vec::new());
             }
         }
+    }
+
+    /// Whether the top of a person who has just stood up (`top`, with the head in view) has
+    /// stopped rising: their stature can be learned. True for anyone else.
+    fn settled(&mut self, top: f64) -> bool {
+        let Some(tops) = self.settling.as_mut() else {
+            return true;
+        };
+        tops.push_back(top);
+        if tops.len() > SETTLE_FRAMES {
+            tops.pop_front();
+        }
+        let (lo, hi) = tops
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
+                (lo.min(*t), hi.max(*t))
+            });
+        if tops.len() == SETTLE_FRAMES && hi - lo < SETTLED_M {
+            self.settling = None;
+            return true;
+        }
+        false
     }
 
     /// Forgets the stature, leg lengths, hip height and width, and learns them afresh from the
@@ -803,12 +863,34 @@ impl LegTracker {
         out.people = people.iter().filter(|c| !limbs.contains(&c.label)).count();
         out.person_pixels = mask.iter().filter(|m| **m).count();
         out.person_share = out.person_pixels as f64 / cloud.valid as f64;
+        let ff = FloorFrame::new(floor.up_in_kinect, floor.camera_height_m);
+        out.reaching_share = posture::reaching_share(&cloud, &piece, &ff);
+        if out
+            .reaching_share
+            .is_some_and(|s| s >= self.config.not_standing_share)
+        {
+            // Seated or crouching: nothing of the body is learned from it, and the legs are
+            // found afresh once the person stands. The person stays the one followed.
+            self.forget_legs();
+            if self.held.is_none() {
+                self.settling = Some(std::collections::VecDeque::new());
+            }
+            out.status = Status::NotStanding;
+            out.stature_m = self.stature();
+            out.person_mask = mask;
+            return out;
+        }
         self.frames += 1;
         // Stature: the head must be in view to measure it.
         let top_in_view = !mask[..WIDTH * 2].iter().any(|&m| m);
         if top_in_view && person.height_range_m.1 > 1.0 {
             if self.held.is_none() && self.recheck.is_none() {
-                self.statures.push(person.height_range_m.1);
+                if self.settled(person.height_range_m.1) {
+                    self.statures.push(person.height_range_m.1);
+                } else {
+                    // The learning frames start once the person stands still in height.
+                    self.learning_since = self.frames;
+                }
             } else if !person.at_border {
                 // Whole in view: someone walking in past the image's side edge shows a
                 // shoulder's height before the head.
