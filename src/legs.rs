@@ -254,7 +254,7 @@ pub fn run(args: &Args) -> eyre::Result<()> {
                     mask_png,
                     overlay_png,
                 } => {
-                    text += &table(file, tracked, *iou);
+                    text += &table(file, tracked, *iou, args.sensor.as_deref());
                     if let (Some(m), Some(o)) = (mask_png, overlay_png) {
                         text += &format!("  wrote {} and {}\n", m.display(), o.display());
                     }
@@ -344,8 +344,14 @@ fn state_name(state: TrackingState) -> &'static str {
     }
 }
 
-/// One frame as text: outcome, people, share and IoU, then one line per joint.
-fn table(file: &Path, t: &TrackedFrame, iou: Option<f64>) -> String {
+/// Below this share of the lower image on a rig's floor, a frame without anyone is said to
+/// match the floor poorly: a walkway seen from a sensor's pose has most of it there, and a
+/// frame tracked on its own fitted floor had 8 % of it on the real frame 004378.
+const POOR_RIG_FLOOR_SHARE: f64 = 0.05;
+
+/// One frame as text: outcome, people, share and IoU, then one line per joint; `sensor`, the
+/// rig sensor whose floor was used, if any.
+fn table(file: &Path, t: &TrackedFrame, iou: Option<f64>, sensor: Option<&str>) -> String {
     let mut s = format!(
         "{}: {}, {} person(s) in view, person {} px = {:.1} % of {} valid px",
         file.display(),
@@ -367,6 +373,14 @@ fn table(file: &Path, t: &TrackedFrame, iou: Option<f64>) -> String {
         );
     } else if t.status == Status::Tracking && t.joints.is_empty() {
         s += ", no two legs found under the hips in this frame";
+    } else if t.status == Status::Nobody
+        && let (Some(id), Some(share)) = (sensor, t.floor_share)
+        && share < POOR_RIG_FLOOR_SHARE
+    {
+        s += &format!(
+            ", only {:.0} % of the lower image lies on the floor of {id}'s pose: is the frame that sensor's? (without --rig the floor is fitted to the frame)",
+            100.0 * share
+        );
     }
     if t.body_relearned {
         s += ", the stature changed (someone else, someone who stood up, or a hand over the head): the body is learned afresh";

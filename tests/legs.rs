@@ -206,3 +206,45 @@ fn a_recorded_sequence_with_an_empty_frame_and_a_broken_file() {
         "{stdout}"
     );
 }
+
+/// Frames of different sensors: the ten Kinects of the Panoptic studio at one instant, a
+/// seated cellist. As one sequence they keep the first frame's floor, and nine of the ten come
+/// out `nobody`; `--separately` tracks each on its own, and every view with a person is
+/// `not_standing`, saying how much of the person reaches out at thigh height, with no joint.
+/// A rig's floor that does not match the frame (the thesis rig's k1 for frame 004378) is said
+/// to match poorly rather than leaving a bare `nobody`.
+#[test]
+fn frames_of_different_sensors_and_a_seated_person() {
+    let (Some(panoptic), Some(real)) = (
+        trigait_test_data::shared_file("kinect-v2-panoptic-10-sensors/depth_00000.png"),
+        trigait_test_data::shared_file("kinect-v2-depth-person/004378_depth.png"),
+    ) else {
+        return;
+    };
+    let dir = panoptic.parent().unwrap().to_str().unwrap().to_owned();
+    let out = trigait(&["--separately", dir.as_str()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    let seated: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains(": not_standing,"))
+        .collect();
+    assert_eq!(seated.len(), 8, "{text}");
+    assert!(
+        seated
+            .iter()
+            .all(|l| l.contains("reach out from under the trunk")),
+        "{text}"
+    );
+    assert!(!text.lines().any(|l| l.starts_with("  Hip")), "{text}");
+    assert!(
+        text.contains("10 frames: nobody 2, not_standing 8"),
+        "{text}"
+    );
+    let out = trigait(&[real.to_str().unwrap(), "--rig", "thesis", "--sensor", "k1"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("nobody") && text.contains("lies on the floor of k1's pose"),
+        "{text}"
+    );
+}

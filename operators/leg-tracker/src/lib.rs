@@ -355,6 +355,10 @@ pub struct TrackedFrame {
     /// standing or walking, a quarter and more seated; `None` without a person, or with too
     /// few points to tell.
     pub reaching_share: Option<f64>,
+    /// The share of the lower image half's valid pixels that lie on the floor in use: near
+    /// none says the floor does not match the frame (a rig's floor given for another sensor,
+    /// or a sensor that moved); `None` when the frame was not weighed (no data, no floor).
+    pub floor_share: Option<f64>,
 }
 
 impl TrackedFrame {
@@ -376,6 +380,7 @@ impl TrackedFrame {
             floor_doubted_frames: 0,
             body_relearned: false,
             reaching_share: None,
+            floor_share: None,
         }
     }
 
@@ -522,6 +527,8 @@ pub struct LegTracker {
     /// The largest share of the lower image half's valid pixels that the floor in use has held
     /// on a frame.
     floor_support: Option<f64>,
+    /// This frame's share of the lower image on the floor, once weighed.
+    floor_share: Option<f64>,
     /// Frames on which the floor in use held under [`FLOOR_DOUBT_SHARE`] of that, in a row
     /// ([`FLOOR_DOUBT_FRAMES`]).
     floor_doubted: usize,
@@ -623,6 +630,7 @@ impl LegTracker {
         Ok(Self {
             floor: config.floor,
             floor_support: None,
+            floor_share: None,
             floor_doubted: 0,
             floor_tried_at: 0,
             floor_refits: 0,
@@ -782,7 +790,9 @@ impl LegTracker {
     /// Tracks one frame.
     pub fn track(&mut self, frame: &DepthFrame) -> TrackedFrame {
         let (refits, relearns) = (self.floor_refits, self.relearns);
+        self.floor_share = None;
         let mut out = self.track_frame(frame);
+        out.floor_share = self.floor_share;
         out.floor_refitted = self.floor_refits > refits;
         out.body_relearned = self.relearns > relearns;
         out.floor_doubted_frames = self.floor_doubted;
@@ -946,7 +956,8 @@ impl LegTracker {
     /// share of the lower image half's valid pixels on it, against the most it has held.
     fn watch_floor(&mut self, cloud: &segment::Cloud) {
         let tolerance = self.config.segment.floor_tolerance_m as f32;
-        let Some(share) = segment::floor_share(&cloud.height, tolerance) else {
+        self.floor_share = segment::floor_share(&cloud.height, tolerance);
+        let Some(share) = self.floor_share else {
             return;
         };
         let most = self.floor_support.map_or(share, |m| m.max(share));
