@@ -335,7 +335,7 @@ fn render(o: &Outcome) -> String {
 fn render_sensors(out: &mut String, c: &trigait_calibration::Calibration) {
     let _ = writeln!(
         out,
-        "\n{:<6} {:>22} {:>14} {:>22} {:>20} {:>9} {:>8} {:>8} {:>7}",
+        "\n{:<6} {:>22} {:>19} {:>22} {:>20} {:>9} {:>8} {:>8} {:>9}",
         "sensor",
         "position x/y/z m",
         "ypr deg",
@@ -344,7 +344,7 @@ fn render_sensors(out: &mut String, c: &trigait_calibration::Calibration) {
         "resid mm",
         "outliers",
         "swapped",
-        "ref"
+        "reference"
     );
     for s in &c.sensors {
         let Some(p) = s.world_from_kinect else {
@@ -357,7 +357,7 @@ fn render_sensors(out: &mut String, c: &trigait_calibration::Calibration) {
         let [rx, ry, rz] = s.rotation_sigma_rad;
         let _ = writeln!(
             out,
-            "{:<6} {:>22} {:>14} {:>22} {:>20} {:>9.1} {:>8} {:>8} {:>7}",
+            "{:<6} {:>22} {:>19} {:>22} {:>20} {:>9.1} {:>8} {:>8} {:>9}",
             s.id,
             format!("{:.3} {:.3} {:.3}", t.x, t.y, t.z),
             format!("{:.1} {:.1} {:.1}", ypr[0], ypr[1], ypr[2]),
