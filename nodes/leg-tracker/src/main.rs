@@ -55,7 +55,7 @@ pub struct Counters {
     /// Frames that are not 512×424 (skipped).
     pub wrong_size: u64,
     /// Frames sent, by the tracker's outcome (`no_data`, `no_floor`, `nobody`, `too_close`,
-    /// `tracking`, `no_stature`).
+    /// `tracking`, `no_stature`, `not_standing`).
     pub by_status: BTreeMap<&'static str, u64>,
     /// Floors fitted afresh because the one in use no longer matched the depth.
     pub floor_refits: u64,

@@ -292,7 +292,10 @@ pub fn rigid_residuals(from: &[Vector3<f64>], to: &[Vector3<f64>]) -> Vec<f64> {
     for (a, b) in from.iter().zip(to) {
         h += (a - fm) * (b - tm).transpose();
     }
-    let svd = h.svd(true, true);
+    // Bounded: an unbounded SVD never converges on a NaN.
+    let Some(svd) = h.try_svd(true, true, f64::EPSILON, 10_000) else {
+        return vec![f64::INFINITY; n];
+    };
     let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
         return vec![f64::INFINITY; n];
     };

@@ -331,3 +331,24 @@ pub(crate) fn pseudo_inverse(s: &DMatrix<f64>) -> DMatrix<f64> {
     );
     v_t.transpose() * DMatrix::from_diagonal(&inv) * u.transpose()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A normal matrix holding a NaN or an overflow gives back a matrix, promptly: an unbounded
+    /// SVD never converges on it. A well-posed one is inverted.
+    #[test]
+    fn pseudo_inverse_of_a_non_finite_matrix_ends() {
+        for bad in [f64::NAN, f64::INFINITY, 1e300 * 1e300] {
+            let mut s = DMatrix::<f64>::identity(12, 12);
+            s[(3, 5)] = bad;
+            s[(5, 3)] = bad;
+            let inv = pseudo_inverse(&s);
+            assert_eq!(inv.shape(), (12, 12));
+        }
+        let s = DMatrix::from_diagonal(&DVector::from_iterator(4, [1.0, 2.0, 4.0, 8.0]));
+        let inv = pseudo_inverse(&s);
+        assert!((inv[(3, 3)] - 0.125).abs() < 1e-12 && (inv[(0, 0)] - 1.0).abs() < 1e-12);
+    }
+}

@@ -139,6 +139,34 @@ mod tests {
 
     use super::*;
 
+    /// Pairs holding a NaN or an overflowing coordinate give no motion, and promptly: an
+    /// unbounded SVD never converges on them.
+    #[test]
+    fn non_finite_pairs_give_no_motion() {
+        for bad in [f64::NAN, f64::INFINITY, 1e300] {
+            let pairs: Vec<Pair> = (0..6)
+                .map(|j| {
+                    let j = f64::from(j);
+                    let b = Point3::new(0.1 * j, j.sin(), 0.3 * j.cos());
+                    Pair {
+                        a: if j == 2.0 {
+                            Point3::new(bad, 0.0, 0.0)
+                        } else {
+                            b
+                        },
+                        b,
+                        weight: 1.0,
+                    }
+                })
+                .collect();
+            let found = kabsch(&pairs);
+            assert!(
+                found.is_none_or(|m| m.translation.vector.iter().all(|v| !v.is_finite())),
+                "{bad}: {found:?}"
+            );
+        }
+    }
+
     /// Kabsch recovers a known motion exactly; RANSAC keeps it when a third of the instants are
     /// garbage.
     #[test]

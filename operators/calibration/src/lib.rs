@@ -539,7 +539,11 @@ pub fn calibrate(
             impossible: c.impossible,
             reports: c.reports,
         });
-    calibrate_cleaned(tracks, cleaned, initial, params).map_err(|e| impossible.unwrap_or(e))
+    calibrate_cleaned(tracks, cleaned, initial, params).map_err(|e| match e {
+        // A rig without the sensor is the user's configuration, whatever the reports hold.
+        Error::NotInRig { .. } => e,
+        _ => impossible.unwrap_or(e),
+    })
 }
 
 /// [`calibrate`] once the reports are cleaned.

@@ -119,8 +119,9 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
         .filter(|t| t.declared && t.pelvis_travel_m > crate::treadmill::MAX_PELVIS_TRAVEL_M)
     {
         out.push(format!(
-            "the pelvis went {:.1} m from where it started, which it does not on a treadmill: is \
-             this an overground walk? (declared a treadmill, it was corrected as one)",
+            "the pelvis ranged {:.1} m from its middle position, which it does not on a \
+             treadmill: is this an overground walk? (declared a treadmill, it was corrected as \
+             one)",
             t.pelvis_travel_m
         ));
     }

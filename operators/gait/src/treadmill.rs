@@ -8,8 +8,9 @@
 //! belt-corrected: the distance the walker would have covered on the floor.
 //!
 //! **Detection** ([`TreadmillMode::Auto`]): the pelvis stays within [`MAX_PELVIS_TRAVEL_M`]
-//! of where it started throughout the clip (a walk out and back ends where it began, but it
-//! went somewhere), while both heels swing back and forth relative to it
+//! of its median position over nearly all of the clip (a walk out and back ends where it
+//! began, but it went somewhere; one pelvis sample thrown off by a tracker does not count),
+//! while both heels swing back and forth relative to it
 //! by at least [`MIN_FOOT_EXCURSION_M`] along one horizontal axis (periodic feet), the feet
 //! pass each other along that axis (each is ahead of the other by at least
 //! [`MIN_PASSING_M`] at times: walking, not a leg moved out to the side and back) and the stance
@@ -53,15 +54,20 @@ pub struct Treadmill {
     pub walking_direction: [f64; 2],
     /// Stance samples the estimate rests on (0 when the speed was given).
     pub stance_samples: usize,
-    /// Farthest the pelvis went from where it started, horizontally (m): under
+    /// How far the pelvis ranged, horizontally (m): the distance from its median position
+    /// that all but [`PELVIS_OUTSIDE_SHARE`] of its samples keep within. Under
     /// [`MAX_PELVIS_TRAVEL_M`] on a treadmill, so more, on a declared one, says the walk
     /// probably went over the ground.
     #[serde(default)]
     pub pelvis_travel_m: f64,
 }
 
-/// The pelvis stays within this (m, horizontally) of where it started on a treadmill.
+/// The pelvis stays within this (m, horizontally) of its median position on a treadmill, in
+/// all but [`PELVIS_OUTSIDE_SHARE`] of the samples.
 pub const MAX_PELVIS_TRAVEL_M: f64 = 0.5;
+/// The share of pelvis samples that may lie farther than [`MAX_PELVIS_TRAVEL_M`] from its
+/// median position on a treadmill (tracker outliers).
+pub const PELVIS_OUTSIDE_SHARE: f64 = 0.05;
 /// Each heel's back-and-forth excursion relative to the pelvis (5th–95th percentile range along
 /// the walking axis) is at least this on a treadmill (m): half a normal stride is ≈ 0.6 m.
 pub const MIN_FOOT_EXCURSION_M: f64 = 0.25;
@@ -146,11 +152,17 @@ pub(crate) fn correct(
         .flatten()
         .map(|p| Vector2::new(p.x, p.y))
         .collect();
-    let first = pelvis.first()?;
-    let travel = pelvis
-        .iter()
-        .map(|p| (p - first).norm())
-        .fold(0.0, f64::max);
+    let middle = Vector2::new(
+        percentile(&mut pelvis.iter().map(|p| p.x).collect::<Vec<_>>(), 0.5)?,
+        percentile(&mut pelvis.iter().map(|p| p.y).collect::<Vec<_>>(), 0.5)?,
+    );
+    let travel = percentile(
+        &mut pelvis
+            .iter()
+            .map(|p| (p - middle).norm())
+            .collect::<Vec<_>>(),
+        1.0 - PELVIS_OUTSIDE_SHARE,
+    )?;
     if !declared && travel > MAX_PELVIS_TRAVEL_M {
         return None;
     }

@@ -126,7 +126,10 @@ fn out_and_back_is_no_treadmill_at_any_clock() {
                     a.timing
                 );
             }
-            Err(e) => assert!(scale > 1.0, "at {scale}x: {e}"),
+            Err(e) => assert!(
+                scale > 1.0 && matches!(e, Error::NoWalking { .. }),
+                "at {scale}x: {e}"
+            ),
         }
     }
 }
@@ -150,7 +153,7 @@ fn a_treadmill_declared_overground_is_questioned() {
     };
     let a = analyse(&over, &params).unwrap();
     let t = a.treadmill.expect("declared");
-    assert!(t.declared && t.pelvis_travel_m > 5.0, "{t:?}");
+    assert!(t.declared && t.pelvis_travel_m > 2.5, "{t:?}");
     let notes = trigait_gait::report::quality_notes(&[], &a);
     assert!(
         notes

@@ -496,11 +496,16 @@ const STANDING_TALLER_FRAMES: usize = 30;
 const STANDING_TALLER_M: f64 = 0.1;
 
 /// A person who has just stood up ([`Status::NotStanding`] before) keeps rising for a second or
-/// so, their top with them; the stature is learned once the last this many tops ...
-const SETTLE_FRAMES: usize = 10;
-/// ... lie within this, metres (a third of a second; walking, the head bobs by about ±2.5 cm
-/// over a step of half a second).
-const SETTLED_M: f64 = 0.03;
+/// so, their top with them; their tops are taken again once the rise has stopped: the median
+/// of the last this many tops (half a second, a step's time, over which the head's bob of
+/// about ±2.5 cm while walking evens out) ...
+const SETTLE_FRAMES: usize = 15;
+/// ... lies within this of the median of the as many before, metres (rising, the top climbs
+/// about 1 cm a frame).
+const SETTLED_M: f64 = 0.02;
+/// Frames after standing up when the rise is taken as over anyway, its top unseen (the head
+/// above the image) or never still (3 s).
+const MAX_SETTLE_FRAMES: usize = 90;
 
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
@@ -568,9 +573,11 @@ pub struct LegTracker {
     /// The tops of the last [`STANDING_TALLER_FRAMES`] frames with the head and the whole body
     /// in view, while the stature is held.
     recent_tops: std::collections::VecDeque<f64>,
-    /// While no body is held and the person has just stood up: their last tops, until
-    /// [`SETTLE_FRAMES`] of them lie within [`SETTLED_M`] (the stature is learned from then).
+    /// Once the person has stood up, until their top stops rising: their last tops (see
+    /// [`SETTLE_FRAMES`]). Meanwhile nothing of the body is learned or checked.
     settling: Option<std::collections::VecDeque<f64>>,
+    /// Frames of standing since the person stood up, while settling.
+    settling_frames: usize,
     /// Bodies learned afresh so far, for someone else found or someone who stood up.
     relearns: usize,
     /// Frames in a row without the person followed.
@@ -652,6 +659,7 @@ impl LegTracker {
             recheck: None,
             recent_tops: std::collections::VecDeque::new(),
             settling: None,
+            settling_frames: 0,
             relearns: 0,
             absent: 0,
             learning_since: 0,
@@ -751,21 +759,26 @@ impl LegTracker {
     }
 
     /// Whether the top of a person who has just stood up (`top`, with the head in view) has
-    /// stopped rising: their stature can be learned. True for anyone else.
+    /// stopped rising: their tops may be taken for the stature again. True for anyone else.
     fn settled(&mut self, top: f64) -> bool {
         let Some(tops) = self.settling.as_mut() else {
             return true;
         };
         tops.push_back(top);
-        if tops.len() > SETTLE_FRAMES {
+        if tops.len() > 2 * SETTLE_FRAMES {
             tops.pop_front();
         }
-        let (lo, hi) = tops
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
-                (lo.min(*t), hi.max(*t))
-            });
-        if tops.len() == SETTLE_FRAMES && hi - lo < SETTLED_M {
+        if tops.len() < 2 * SETTLE_FRAMES {
+            return false;
+        }
+        let (mut before, mut last): (Vec<f64>, Vec<f64>) = (
+            tops.iter().take(SETTLE_FRAMES).copied().collect(),
+            tops.iter().skip(SETTLE_FRAMES).copied().collect(),
+        );
+        let rise = median(&mut last)
+            .zip(median(&mut before))
+            .map(|(b, a)| b - a);
+        if rise.is_some_and(|r| r.abs() < SETTLED_M) {
             self.settling = None;
             return true;
         }
@@ -882,25 +895,32 @@ impl LegTracker {
             // Seated or crouching: nothing of the body is learned from it, and the legs are
             // found afresh once the person stands. The person stays the one followed.
             self.forget_legs();
-            if self.held.is_none() {
-                self.settling = Some(std::collections::VecDeque::new());
-            }
+            self.settling = Some(std::collections::VecDeque::new());
+            self.settling_frames = 0;
             out.status = Status::NotStanding;
             out.stature_m = self.stature();
+            out.hip_height_m = out.stature_m.map(|s| self.hip_height(s));
+            out.segment_lengths_m = out.hip_height_m.and_then(|hip_h| self.lengths(hip_h));
+            out.lengths_held = self.held.is_some();
             out.person_mask = mask;
             return out;
         }
         self.frames += 1;
+        if self.settling.is_some() {
+            self.settling_frames += 1;
+            if self.settling_frames > MAX_SETTLE_FRAMES {
+                self.settling = None;
+            }
+        }
         // Stature: the head must be in view to measure it.
         let top_in_view = !mask[..WIDTH * 2].iter().any(|&m| m);
         if top_in_view && person.height_range_m.1 > 1.0 {
-            if self.held.is_none() && self.recheck.is_none() {
-                if self.settled(person.height_range_m.1) {
-                    self.statures.push(person.height_range_m.1);
-                } else {
-                    // The learning frames start once the person stands still in height.
-                    self.learning_since = self.frames;
-                }
+            if !self.settled(person.height_range_m.1) {
+                // Still rising after standing up: the learning frames start once the rise
+                // has stopped.
+                self.learning_since = self.frames;
+            } else if self.held.is_none() && self.recheck.is_none() {
+                self.statures.push(person.height_range_m.1);
             } else if !person.at_border {
                 // Whole in view: someone walking in past the image's side edge shows a
                 // shoulder's height before the head.
@@ -923,6 +943,7 @@ impl LegTracker {
         out.stature_m = stature;
         out.segment_lengths_m = out.hip_height_m.and_then(|hip_h| self.lengths(hip_h));
         if self.held.is_none()
+            && self.settling.is_none()
             && self.frames - self.learning_since >= self.config.learning_frames
             && self.thighs.len() >= 10
             && self.shanks.len() >= 10
@@ -937,6 +958,7 @@ impl LegTracker {
             let measured = 0.5 * (l.0 + l.1) - 0.5 * hip_h;
             self.held = Some((s, measured.min(straight + 0.5 * LEG_SLACK_M)));
         } else if self.held.is_none()
+            && self.settling.is_none()
             && self.frames - self.learning_since >= self.config.learning_frames
             && let Some(s) = stature
         {
@@ -1076,7 +1098,11 @@ impl LegTracker {
         }
         fitter.resplit_lost_chain(&points, share, &mut split, &mut fits);
         fitter.resplit_merged_chains(&points, share, &mut split, &mut fits);
-        self.learn_lengths(&fits, hip_h);
+        // Someone still rising from a seat bends knees and hips as no walk does.
+        let learning = self.settling.is_none();
+        if learning {
+            self.learn_lengths(&fits, hip_h);
+        }
         self.carry_unseen_hips(&mut fits.fit);
         let Some(tracks) = self.update_tracks(&fits) else {
             self.legs = None;
@@ -1089,8 +1115,10 @@ impl LegTracker {
             self.pelvis_history.remove(0);
         }
         self.decide_sides(&ff, &tracks, &fits.fit);
-        self.learn_hip_height(&ff, &fits.fit);
-        self.learn_hip_width(&ff, &tracks, &fits);
+        if learning {
+            self.learn_hip_height(&ff, &fits.fit);
+            self.learn_hip_width(&ff, &tracks, &fits);
+        }
         self.emit(&ff, &tracks, &fits.fit, &split.1, stature, out);
         self.legs = Some(tracks);
     }

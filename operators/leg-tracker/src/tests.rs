@@ -839,7 +839,11 @@ fn robustness() {
     let out = tracker.track(&junk);
     assert!(matches!(
         out.status,
-        Status::Nobody | Status::Tracking | Status::NoFloor | Status::NoStature
+        Status::Nobody
+            | Status::Tracking
+            | Status::NoFloor
+            | Status::NoStature
+            | Status::NotStanding
     ));
 }
 
@@ -1220,10 +1224,12 @@ fn rising_from_a_chair(
 /// As the tracker runs, the seated frames are [`Status::NotStanding`] on every sensor (their
 /// thighs reach out from under the trunk), with no joint, and nothing of the body is learned
 /// from them; the stature is learned once the rising head stops rising. On k1 and k2 no body is
-/// learned afresh, the stature held is within 8 cm of the person's height, and over the last 2 s
-/// the hips are within 5 cm of the rendered joint centres (median; measured 3.9–4.0 cm:
-/// standing still, the hip sits at the anthropometric 0.52 of the stature, about 4 cm under the
-/// rendered body's), the knees and ankles within 4 cm (1.6–1.8 and 1.2–1.3 cm). k3 sees the
+/// learned afresh, the stature held is within 6 cm of the person's height (the top of the
+/// rendered head lies 5 cm under it), and over the last 2 s the hips are within 5 cm of the
+/// rendered joint centres (median; measured 3.9–4.0 cm: standing still, the hip sits at the
+/// anthropometric 0.52 of the stature, about 4 cm under the rendered body's), the knees within
+/// 2.5 cm and the ankles within 4 cm (1.6–1.9 and 1.2–1.3 cm; the stature learned while the
+/// head still rose had been 7 cm short and the knees 3.6–3.7 cm off). k3 sees the
 /// standing person's head above its image, never the whole standing person, and reports no
 /// joint at all rather than legs sized from a seated stature (hips 0.24–0.33 m off before).
 ///
@@ -1316,7 +1322,7 @@ fn someone_who_stands_up_is_measured_afresh() {
                     continue;
                 }
                 if posture {
-                    if !relearned.is_empty() || stature.is_none_or(|s| (s - height).abs() > 0.08) {
+                    if !relearned.is_empty() || stature.is_none_or(|s| (s - height).abs() > 0.06) {
                         failures.push(format!(
                             "{who}: learned afresh at {relearned:?}, stature {stature:?}"
                         ));
@@ -1329,7 +1335,9 @@ fn someone_who_stands_up_is_measured_afresh() {
                         failures.push(format!("{who}: learned afresh at {relearned:?}"));
                     }
                 }
-                let goals = [0.05, 0.04, 0.04];
+                // Judged, the knees are held to 2.5 cm: learned while the head still rose,
+                // the stature had come out 7 cm short and the knees 3.6–3.7 cm off.
+                let goals = [0.05, if posture { 0.025 } else { 0.04 }, 0.04];
                 if errors.iter().any(|e| e.len() < 60)
                     || medians.iter().zip(goals).any(|(m, g)| m.is_nan() || *m > g)
                 {
