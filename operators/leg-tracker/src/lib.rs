@@ -912,9 +912,11 @@ impl LegTracker {
                 self.settling = None;
             }
         }
-        // Stature: the head must be in view to measure it.
+        // Stature: the head must be in view to measure it, and the person reach the height
+        // of the smallest person taken for one (lower, only a part of them is in view: the
+        // legs of someone seated at the image's side edge measured 1.0 m).
         let top_in_view = !mask[..WIDTH * 2].iter().any(|&m| m);
-        if top_in_view && person.height_range_m.1 > 1.0 {
+        if top_in_view && person.height_range_m.1 > params.min_person_height_m {
             if !self.settled(person.height_range_m.1) {
                 // Still rising after standing up: the learning frames start once the rise
                 // has stopped.
