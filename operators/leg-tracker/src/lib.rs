@@ -507,6 +507,15 @@ const SETTLED_M: f64 = 0.02;
 /// above the image) or never still (3 s).
 const MAX_SETTLE_FRAMES: usize = 90;
 
+/// A person's rise after standing up, followed until it stops.
+#[derive(Debug, Clone, Default)]
+struct Settling {
+    /// The last tops with the head in view, up to twice [`SETTLE_FRAMES`].
+    tops: std::collections::VecDeque<f64>,
+    /// Frames of standing since.
+    frames: usize,
+}
+
 /// Frames of hip motion that decide the walking direction (0.2 s at 30 Hz).
 const PELVIS_HISTORY: usize = 6;
 /// Horizontal hip travel over those frames that counts as walking, metres (0.5 m/s).
@@ -573,11 +582,9 @@ pub struct LegTracker {
     /// The tops of the last [`STANDING_TALLER_FRAMES`] frames with the head and the whole body
     /// in view, while the stature is held.
     recent_tops: std::collections::VecDeque<f64>,
-    /// Once the person has stood up, until their top stops rising: their last tops (see
-    /// [`SETTLE_FRAMES`]). Meanwhile nothing of the body is learned or checked.
-    settling: Option<std::collections::VecDeque<f64>>,
-    /// Frames of standing since the person stood up, while settling.
-    settling_frames: usize,
+    /// Once the person has stood up, until their top stops rising (see [`SETTLE_FRAMES`]):
+    /// meanwhile nothing of the body is learned or checked.
+    settling: Option<Settling>,
     /// Bodies learned afresh so far, for someone else found or someone who stood up.
     relearns: usize,
     /// Frames in a row without the person followed.
@@ -659,7 +666,6 @@ impl LegTracker {
             recheck: None,
             recent_tops: std::collections::VecDeque::new(),
             settling: None,
-            settling_frames: 0,
             relearns: 0,
             absent: 0,
             learning_since: 0,
@@ -761,7 +767,7 @@ impl LegTracker {
     /// Whether the top of a person who has just stood up (`top`, with the head in view) has
     /// stopped rising: their tops may be taken for the stature again. True for anyone else.
     fn settled(&mut self, top: f64) -> bool {
-        let Some(tops) = self.settling.as_mut() else {
+        let Some(Settling { tops, .. }) = self.settling.as_mut() else {
             return true;
         };
         tops.push_back(top);
@@ -895,8 +901,7 @@ impl LegTracker {
             // Seated or crouching: nothing of the body is learned from it, and the legs are
             // found afresh once the person stands. The person stays the one followed.
             self.forget_legs();
-            self.settling = Some(std::collections::VecDeque::new());
-            self.settling_frames = 0;
+            self.settling = Some(Settling::default());
             out.status = Status::NotStanding;
             out.stature_m = self.stature();
             out.hip_height_m = out.stature_m.map(|s| self.hip_height(s));
@@ -906,9 +911,9 @@ impl LegTracker {
             return out;
         }
         self.frames += 1;
-        if self.settling.is_some() {
-            self.settling_frames += 1;
-            if self.settling_frames > MAX_SETTLE_FRAMES {
+        if let Some(s) = self.settling.as_mut() {
+            s.frames += 1;
+            if s.frames > MAX_SETTLE_FRAMES {
                 self.settling = None;
             }
         }
@@ -938,7 +943,7 @@ impl LegTracker {
         out.hip_height_m = stature.map(|s| self.hip_height(s));
         match (stature, out.hip_height_m) {
             (Some(stature), Some(hip_h)) => {
-                self.fit_legs(&cloud, &piece, &floor, stature, hip_h, &mut out);
+                self.fit_legs(&cloud, &piece, &ff, stature, hip_h, &mut out);
             }
             _ => out.status = Status::NoStature,
         }
@@ -1027,12 +1032,12 @@ impl LegTracker {
         &mut self,
         cloud: &segment::Cloud,
         piece: &[u8],
-        floor: &Floor,
+        ff: &FloorFrame,
         stature: f64,
         hip_h: f64,
         out: &mut TrackedFrame,
     ) {
-        let ff = FloorFrame::new(floor.up_in_kinect, floor.camera_height_m);
+        let ff = *ff;
         let points = LegPoints::gather(cloud, piece, &ff, hip_h);
         if points.pts.len() < 50 {
             return self.coast(out);
