@@ -22,7 +22,7 @@ pub struct Args {
     #[arg(long, default_value = "ring-6")]
     rig: String,
     /// Joint observations to solve (frames × leg joints of the walker), 1 to 1,000,000.
-    #[arg(long, default_value_t = 3000, value_parser = crate::ranges::count(1, 1_000_000))]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 3000, value_parser = crate::ranges::count(1, 1_000_000))]
     problems: usize,
     /// Seed of the simulated noise (any 64-bit number).
     #[arg(long, default_value_t = 1)]

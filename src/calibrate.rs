@@ -30,13 +30,13 @@ pub struct Args {
     #[arg(long, conflicts_with = "recording", default_value = "lanes", value_parser = ["lanes", "straight"])]
     path: String,
     /// Distance between the outbound and the return lane, metres (0: back on the same line).
-    #[arg(long, conflicts_with = "recording", default_value_t = 1.0, value_parser = crate::ranges::number(0.0, 10.0, "m"))]
+    #[arg(allow_negative_numbers = true, long, conflicts_with = "recording", default_value_t = 1.0, value_parser = crate::ranges::number(0.0, 10.0, "m"))]
     lane_m: f64,
     /// Out-and-back laps.
-    #[arg(long, conflicts_with = "recording", default_value_t = 1, value_parser = crate::ranges::count(1, 50))]
+    #[arg(allow_negative_numbers = true, long, conflicts_with = "recording", default_value_t = 1, value_parser = crate::ranges::count(1, 50))]
     laps: usize,
     /// Time between the passes while the walker turns (not simulated: nothing is reported), s.
-    #[arg(long, conflicts_with = "recording", default_value_t = 1.0, value_parser = crate::ranges::number(0.0, 60.0, "s"))]
+    #[arg(allow_negative_numbers = true, long, conflicts_with = "recording", default_value_t = 1.0, value_parser = crate::ranges::number(0.0, 60.0, "s"))]
     turn_secs: f64,
     /// A sensor whose skeleton output has left and right swapped throughout.
     #[arg(long, conflicts_with = "recording")]

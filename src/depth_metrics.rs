@@ -35,7 +35,7 @@ pub struct Args {
     mask: Option<PathBuf>,
     /// True distance of a fronto-parallel target plane in metres, 0.1 to 10 (otherwise a plane is
     /// fitted).
-    #[arg(long, value_name = "METRES", value_parser = crate::ranges::number(0.1, 10.0, "m"))]
+    #[arg(allow_negative_numbers = true, long, value_name = "METRES", value_parser = crate::ranges::number(0.1, 10.0, "m"))]
     target_distance_m: Option<f64>,
     /// Write colour-mapped PNG maps (with legends) into this directory.
     #[arg(long, value_name = "DIR")]
@@ -48,10 +48,10 @@ pub struct Args {
     #[arg(long)]
     json: bool,
     /// Frames per entropy window, 2 to 1000 (thesis: 30).
-    #[arg(long, default_value_t = 30, value_name = "N", value_parser = crate::ranges::count(2, 1000))]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 30, value_name = "N", value_parser = crate::ranges::count(2, 1000))]
     entropy_window: usize,
     /// Evaluate depth resolution and edge noise on every N-th frame, 1 to 100,000.
-    #[arg(long, default_value_t = 1, value_name = "N", value_parser = crate::ranges::count(1, 100_000))]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 1, value_name = "N", value_parser = crate::ranges::count(1, 100_000))]
     frame_stride: usize,
     /// Depth jump that separates an object from its background, millimetres, 1 to 4500.
     #[arg(long, default_value_t = 100, value_name = "MM", value_parser = clap::value_parser!(u16).range(1..=4500))]

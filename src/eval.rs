@@ -23,10 +23,10 @@ pub struct Args {
     rig: Option<String>,
     /// Use only the first N sensors of the rig (without --rig: the built-in ring-N, 3 to 64),
     /// 1 to 256.
-    #[arg(long, value_parser = crate::ranges::count(1, 256))]
+    #[arg(allow_negative_numbers = true, long, value_parser = crate::ranges::count(1, 256))]
     sensors: Option<usize>,
     /// Independent noise draws of the whole motion, 1 to 10,000.
-    #[arg(long, default_value_t = 20, value_parser = crate::ranges::count(1, 10_000))]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 20, value_parser = crate::ranges::count(1, 10_000))]
     trials: usize,
     /// Seed of the first trial (trial k uses seed + k; any 64-bit number).
     #[arg(long, default_value_t = 1)]
@@ -42,13 +42,13 @@ pub struct Args {
     #[arg(long, default_value = "legs")]
     joints: String,
     /// Duration of the walker, seconds, 0.1 to 600 (it crosses the 3 m walkway in about 2.5 s).
-    #[arg(long, default_value_t = 2.5, value_parser = crate::ranges::number(0.1, 600.0, "s"))]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 2.5, value_parser = crate::ranges::number(0.1, 600.0, "s"))]
     duration_secs: f64,
     /// Sampling rate of the walker, Hz, 1 to 1000 (the Kinect v2 frame rate is 30 Hz).
-    #[arg(long, default_value_t = 30.0, value_parser = crate::ranges::number(1.0, 1000.0, "Hz"))]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 30.0, value_parser = crate::ranges::number(1.0, 1000.0, "Hz"))]
     rate_hz: f64,
     /// Worker threads, 1 to 256 [default: all cores].
-    #[arg(long, value_parser = crate::ranges::count(1, 256))]
+    #[arg(allow_negative_numbers = true, long, value_parser = crate::ranges::count(1, 256))]
     threads: Option<usize>,
     /// Print the report as JSON on stdout instead of tables.
     #[arg(long)]

@@ -27,7 +27,7 @@ pub struct Args {
     /// Treadmill walking, at SPEED m/s if given (else the belt speed is estimated from the
     /// stance feet), 0 to 10 m/s. Without the option a treadmill is detected from a fixed
     /// pelvis and periodic feet.
-    #[arg(long, value_name = "SPEED", num_args = 0..=1, value_parser = crate::ranges::number(0.0, 10.0, "m/s"))]
+    #[arg(allow_negative_numbers = true, long, value_name = "SPEED", num_args = 0..=1, value_parser = crate::ranges::number(0.0, 10.0, "m/s"))]
     pub treadmill: Option<Option<f64>>,
     /// Overground walking: never apply the treadmill correction.
     #[arg(long, conflicts_with = "treadmill")]
@@ -38,7 +38,7 @@ pub struct Args {
     pub keep_inferred: bool,
     /// Frame rate of Kinect SDK skeleton text without time stamps (read at the Kinect's 30
     /// frames/s otherwise), 1 to 1000 Hz. Files with their own rate or time stamps refuse it.
-    #[arg(long, value_name = "HZ", value_parser = crate::ranges::number(1.0, 1000.0, "Hz"))]
+    #[arg(allow_negative_numbers = true, long, value_name = "HZ", value_parser = crate::ranges::number(1.0, 1000.0, "Hz"))]
     pub rate: Option<f64>,
     /// Find the events on the joint centres (ankles, feet, pelvis) even when the file has heel
     /// and toe markers, as on a joint export of it.
@@ -58,7 +58,7 @@ pub struct Args {
     pub plots: Option<PathBuf>,
     /// Fewest complete strides (both feet together) accepted; with 0, figures rest on single
     /// steps where no stride exists (the table marks them).
-    #[arg(long, default_value_t = 0, value_parser = crate::ranges::count(0, 1000))]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 0, value_parser = crate::ranges::count(0, 1000))]
     pub min_strides: usize,
     /// Also play the walk through the simulated Kinect pipeline (rig, Kinect v2 noise model,
     /// fusion estimator, 30 Hz) and compare its gait parameters with those of the file.

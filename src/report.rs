@@ -37,7 +37,7 @@ pub struct Args {
     #[arg(long)]
     pub keep_inferred: bool,
     /// Frame rate of Kinect SDK text without time stamps (30 Hz otherwise).
-    #[arg(long, value_name = "HZ", value_parser = crate::ranges::number(1.0, 1000.0, "Hz"))]
+    #[arg(allow_negative_numbers = true, long, value_name = "HZ", value_parser = crate::ranges::number(1.0, 1000.0, "Hz"))]
     pub rate: Option<f64>,
 }
 

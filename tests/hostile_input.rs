@@ -55,10 +55,13 @@ fn assert_clean_failure(out: &Output, expected: &str, what: &str) {
     }
 }
 
-/// Out-of-range numbers are clap errors (exit 2) that state the range.
+/// Out-of-range numbers, negative ones written as separate arguments too, are clap errors
+/// (exit 2) that state the range.
 #[test]
 fn out_of_range_numbers_are_clap_errors() {
-    let cases: [(&[&str], &str); 15] = [
+    let cases: [(&[&str], &str); 17] = [
+        (&["calibrate", "--lane-m", "-1"], "0..=10 m"),
+        (&["calibrate", "--laps", "-3"], "1..=50"),
         (&["calibrate", "--turn-secs", "inf"], "0..=60 s"),
         (&["calibrate", "--turn-secs", "1e9"], "0..=60 s"),
         (&["calibrate", "--turn-secs", "nan"], "0..=60 s"),
