@@ -159,6 +159,22 @@ fn run_recording(args: &Args, given: &std::path::Path) -> eyre::Result<()> {
             calibration.initial,
             calibration.iterations
         );
+        if let Some(rig) = &start {
+            let unused: Vec<&str> = rig
+                .sensors
+                .iter()
+                .map(|s| s.id.as_str())
+                .filter(|id| !tracks.iter().any(|t| t.id == *id))
+                .collect();
+            if !unused.is_empty() {
+                let _ = writeln!(
+                    out,
+                    "note: the rig started from ({}) has sensors the recording has no frames of, left out: {}",
+                    rig.name,
+                    unused.join(", ")
+                );
+            }
+        }
         render_sensors(&mut out, &calibration);
         render_findings(&mut out, &calibration);
         crate::stdout::print(&out)?;
