@@ -380,16 +380,7 @@ pub fn load_input(
     }
     let feet = trigait_motion::foot_markers(&markers)
         .wrap_err_with(|| format!("finding heel and pelvis markers in {}", path.display()))?;
-    let legs: Vec<f64> = feet
-        .heel
-        .iter()
-        .flat_map(|heel| {
-            heel.iter()
-                .zip(&feet.pelvis)
-                .filter_map(|(h, p)| Some((h.as_ref()? - p.as_ref()?).norm()))
-        })
-        .collect();
-    trigait_motion::check_leg_scale(path, legs, "from the pelvis markers to the heel marker")?;
+    trigait_motion::check_foot_marker_scale(path, &feet)?;
     let mut notes = vec![format!(
         "skin markers: events and step width from heel and toe markers ({})",
         feet.labels.join(", ")

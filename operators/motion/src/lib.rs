@@ -181,7 +181,7 @@ pub fn load_motion(path: impl AsRef<Path>) -> Result<MotionClip> {
 const LEG_RANGE_M: (f64, f64) = (0.2, 1.5);
 
 /// Refuses a clip (read from `path`) whose legs, hip over knee to ankle, measure no person's
-/// length; see [`check_leg_scale`].
+/// length, naming the likely unit (median leg outside 0.2–1.5 m).
 ///
 /// # Errors
 /// [`Error::ImplausibleScale`].
@@ -204,14 +204,29 @@ pub fn check_clip_scale(path: &Path, clip: &MotionClip) -> Result<()> {
     check_leg_scale(path, legs, "from hip over knee to ankle")
 }
 
+/// Refuses skin markers (read from `path`) whose legs, the pelvis markers' point to each heel
+/// marker, measure no person's length, naming the likely unit (median leg outside 0.2–1.5 m).
+///
+/// # Errors
+/// [`Error::ImplausibleScale`].
+pub fn check_foot_marker_scale(path: &Path, feet: &FootMarkers) -> Result<()> {
+    let legs: Vec<f64> = feet
+        .heel
+        .iter()
+        .flat_map(|heel| {
+            heel.iter()
+                .zip(&feet.pelvis)
+                .filter_map(|(h, p)| Some((h.as_ref()? - p.as_ref()?).norm()))
+        })
+        .collect();
+    check_leg_scale(path, legs, "from the pelvis markers to the heel marker")
+}
+
 /// Refuses a file whose legs (`legs`, measured as `what` says, metres by the file's stated
 /// units) measure no person's length, naming the likely unit: a unit slip (millimetres
 /// written as metres) otherwise reads as a walk a thousand times too long, which the gait
 /// analysis reports as no walking at all or as impossible speeds. No legs: nothing to judge.
-///
-/// # Errors
-/// [`Error::ImplausibleScale`] when the median leg lies outside 0.2–1.5 m.
-pub fn check_leg_scale(path: &Path, mut legs: Vec<f64>, what: &'static str) -> Result<()> {
+fn check_leg_scale(path: &Path, mut legs: Vec<f64>, what: &'static str) -> Result<()> {
     legs.retain(|l| l.is_finite());
     if legs.is_empty() {
         return Ok(());
