@@ -76,6 +76,13 @@ def real(flt):
         strides = ", ".join(f"{s['foot'][0].upper()} {s['stride_length_m']:.2f} m {s['cadence_steps_per_min']:.0f}/min" for s in doc["strides"])
         steps = ", ".join(f"{s['foot'][0].upper()} {(s['step_length_m'] or 0):.2f} m {s['cadence_steps_per_min']:.0f}/min" for s in doc["steps"])
         flag = " (time base flagged)" if doc["timing"]["implausible"] else ""
+        left_out = ", ".join(
+            f"{s['foot'][0].upper()} {what} {s['cadence_steps_per_min']:.0f}/min"
+            for what, key in [("stride", "inconsistent_strides"), ("step", "inconsistent_steps")]
+            for s in doc.get(key, [])
+        )
+        if left_out:
+            flag += f" left out, heel strikes off the body's travel: [{left_out}]"
         lines.append(f"  {name}: strides [{strides}] steps [{steps}]{flag}")
     return lines
 

@@ -64,10 +64,11 @@ pub enum Filter {
 /// Chosen from a sweep (`scripts/gait_filter_sweep.py`) of none, Butterworth 4, 6, 8 and 10 Hz
 /// and One-Euro. On the CMU and OpenSim walks played through the simulated three-Kinect pipeline
 /// (10 noise seeds each), unfiltered streams missed the tolerances (stride 3 cm, cadence 2 %,
-/// width 2 cm) in 8 of 20 runs (a false stride put one cadence 55 % off), 4 and 6 Hz in none
-/// (mean stride error 0.7 cm, cadence 0.3–0.4 %), 8 Hz in 2, 10 Hz in 4, One-Euro in 2. On the
-/// real CHU Kinect log 6 Hz keeps only walking strides and steps, as unfiltered; 4 and 10 Hz lose
-/// its one complete stride, and 8 Hz, 10 Hz and One-Euro add a left step at 234–279 steps/min.
+/// width 2 cm) in 8 of 20 runs, 4 and 6 Hz in none (mean stride error 0.7 cm, cadence
+/// 0.3–0.4 %), 8 Hz in 2, 10 Hz in 4, One-Euro in 2. On the real CHU Kinect log 6 Hz keeps only
+/// walking strides and steps, as unfiltered; 4 and 10 Hz lose its one complete stride, and 8 Hz,
+/// 10 Hz and One-Euro find a left step at 234–279 steps/min that only the travel check
+/// ([`crate::MAX_TRAVEL_MISMATCH_M`]) keeps out of the figures.
 /// 6 Hz is also the usual cut-off for walking (Winter 2009). Marker data is left unfiltered.
 pub const SKELETON_FILTER: Filter = Filter::Butterworth { cutoff_hz: 6.0 };
 

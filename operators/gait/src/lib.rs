@@ -21,7 +21,9 @@
 //!    the coordinate method of Zeni et al. (2008) or a foot-velocity method in the manner of
 //!    Ghoussayni et al. (2004); see [`EventMethod`].
 //! 3. [`strides`] turns events into per-stride parameters and [`summarise`] into means, standard
-//!    deviations and left/right asymmetry; [`analyse`] runs all of it.
+//!    deviations and left/right asymmetry; [`analyse`] runs all of it, and leaves out of the
+//!    figures any step or stride whose heel-to-heel length the pelvis did not travel between
+//!    its heel strikes ([`MAX_TRAVEL_MISMATCH_M`]): one of its events is not a landing.
 //!
 //!    **Partial strides at the edges.** A short walk (the CMU and OpenSim clips hold about two
 //!    strides per foot) starts and ends mid-stride. Only turning points seen inside a segment
@@ -91,8 +93,9 @@ pub use events::{
 pub use floor::FloorLevel;
 pub use live::{FootCounts, LiveAnalysis, LiveGait, LiveGaitParams, LiveReport, TimedEvent};
 pub use params::{
-    Comparison, GaitAnalysis, GaitParams, Stat, Step, Stride, Summary, SummaryRow, Tolerances,
-    analyse, analyse_landmarks, compare, strides, summarise, summarise_with_steps,
+    Comparison, GaitAnalysis, GaitParams, MAX_TRAVEL_MISMATCH_M, MAX_TRAVEL_MISMATCH_SHARE, Stat,
+    Step, Stride, Summary, SummaryRow, Tolerances, analyse, analyse_landmarks, compare, strides,
+    summarise, summarise_with_steps,
 };
 pub use physics::{FlightPhase, PhysicsParams};
 pub use segment::{

@@ -53,6 +53,35 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
             a.short_contacts
         ));
     }
+    let left_out: Vec<String> = a
+        .inconsistent_strides
+        .iter()
+        .map(|s| {
+            travel_mismatch(
+                "stride",
+                s.foot,
+                (s.start_secs, s.end_secs),
+                s.stride_length_m,
+                s.pelvis_travel_m,
+            )
+        })
+        .chain(a.inconsistent_steps.iter().filter_map(|s| {
+            Some(travel_mismatch(
+                "step",
+                s.foot,
+                (s.start_secs, s.end_secs),
+                s.step_length_m?,
+                s.pelvis_travel_m,
+            ))
+        }))
+        .collect();
+    if !left_out.is_empty() {
+        out.push(format!(
+            "left out of the figures, as the heel strikes that bound them cannot both be where \
+             a foot landed (the body travels about as far as the heel between them): {}",
+            left_out.join("; ")
+        ));
+    }
     if a.timing.implausible {
         out.push(format!(
             "TIMING IMPLAUSIBLE at {:.0} Hz: median swing {} over {} swings, median step {} over \
@@ -127,6 +156,21 @@ pub fn quality_notes(notes: &[String], a: &GaitAnalysis) -> Vec<String> {
     }
     out.push(format!("step width from {}", a.heel_source.name()));
     out
+}
+
+/// One step or stride whose heel-to-heel length and pelvis travel disagree, in words.
+fn travel_mismatch(
+    what: &str,
+    foot: crate::Foot,
+    (start, end): (f64, f64),
+    length: f64,
+    travel: Option<f64>,
+) -> String {
+    format!(
+        "{} {what} {start:.2}-{end:.2} s, {length:.2} m heel to heel while the pelvis moved {}",
+        foot.name(),
+        travel.map_or_else(|| "an unknown distance".to_owned(), |t| format!("{t:.2} m")),
+    )
 }
 
 /// Escapes text for HTML element content and attribute values.

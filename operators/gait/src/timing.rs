@@ -206,6 +206,7 @@ mod tests {
             cadence_steps_per_min: 500.0,
             step_length_m: None,
             step_width_m: None,
+            pelvis_travel_m: None,
         };
         let t = check(&events, &[step(0.0), step(0.5), step(1.0)], &[], 100.0);
         assert!(t.implausible, "{t:?}");

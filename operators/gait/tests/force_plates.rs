@@ -476,6 +476,13 @@ fn run_file(
         analyse_landmarks(&l, &GaitParams::default()).unwrap_or_else(|e| panic!("{file}: {e}"));
     assert_eq!(analysis.heel_source, HeelSource::HeelMarker);
     assert!(!analysis.running, "{file} is walking");
+    // Clean marker walks: every stride and step travels with the body.
+    assert!(
+        analysis.inconsistent_steps.is_empty() && analysis.inconsistent_strides.is_empty(),
+        "{file}: left out {:?} {:?}",
+        analysis.inconsistent_steps,
+        analysis.inconsistent_strides
+    );
     assert_eq!(
         analysis.treadmill.is_some(),
         treadmill,
