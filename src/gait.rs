@@ -640,6 +640,12 @@ fn write_plots(
     clip: &MotionClip,
     analysis: &GaitAnalysis,
 ) -> eyre::Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        eyre::bail!(
+            "--plots {} is a file: the plots go into a directory (give a new or existing one)",
+            dir.display()
+        );
+    }
     std::fs::create_dir_all(dir)
         .wrap_err_with(|| format!("creating the plot directory {}", dir.display()))?;
     let stem = file

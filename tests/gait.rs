@@ -205,6 +205,22 @@ fn table_and_plots() {
             assert_eq!((w, h), expected);
         }
     }
+    // A file where the directory should be is named as such, and nothing is printed.
+    let file = dir.join("07_01_footfall.svg");
+    let out = trigait(&[
+        "gait",
+        path.to_str().unwrap(),
+        "--plots",
+        file.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        out.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("is a file"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

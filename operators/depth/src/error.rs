@@ -73,6 +73,17 @@ pub enum Error {
         /// The file.
         what: String,
     },
+    /// An image given as a mask holds many values, as a depth image does.
+    #[error(
+        "{what}: not a mask: its pixels hold more than {limit} different non-zero values, \
+         where a mask holds a few labels (is it a depth image?)"
+    )]
+    NotAMask {
+        /// The file.
+        what: String,
+        /// The most distinct non-zero values a mask may hold.
+        limit: usize,
+    },
     /// A directory holds no PNG file.
     #[error("{}: no .png files in this directory", path.display())]
     EmptyDirectory {

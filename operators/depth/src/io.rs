@@ -101,11 +101,17 @@ pub fn read_depth_png_as_recorded(path: &Path) -> Result<DepthFrame> {
     DepthFrame::from_mm(depth)
 }
 
+/// Most distinct non-zero values a mask PNG may hold: a binary mask holds one, a body-index or
+/// label image one per person or part. A depth image, the likeliest wrong file, holds thousands.
+pub const MAX_MASK_LABELS: usize = 64;
+
 /// Reads a 512×424 mask PNG (any bit depth or colour type): a pixel is inside when any of its
 /// colour channels is non-zero (alpha is ignored).
 ///
 /// # Errors
-/// The file is missing or unreadable, not a PNG, not 512×424, or the mask is empty.
+/// The file is missing or unreadable, not a PNG, not 512×424, holds more than
+/// [`MAX_MASK_LABELS`] distinct non-zero values (a depth image given as a mask), or the mask is
+/// empty.
 pub fn read_mask_png(path: &Path) -> Result<Mask> {
     let mut reader = open_png(path, png::Transformations::EXPAND)?;
     check_size(path, reader.info())?;
@@ -128,13 +134,23 @@ pub fn read_mask_png(path: &Path) -> Result<Mask> {
             expected: PIXELS,
         });
     }
+    let colour_bytes = colour_channels * bytes_per_sample;
+    let mut labels = std::collections::HashSet::new();
+    for px in bytes.chunks_exact(stride) {
+        let c = &px[..colour_bytes];
+        if c.iter().any(|&b| b != 0) && labels.len() <= MAX_MASK_LABELS {
+            labels.insert(c);
+        }
+    }
+    if labels.len() > MAX_MASK_LABELS {
+        return Err(Error::NotAMask {
+            what: path.display().to_string(),
+            limit: MAX_MASK_LABELS,
+        });
+    }
     let inside: Vec<bool> = bytes
         .chunks_exact(stride)
-        .map(|px| {
-            px[..colour_channels * bytes_per_sample]
-                .iter()
-                .any(|&b| b != 0)
-        })
+        .map(|px| px[..colour_bytes].iter().any(|&b| b != 0))
         .collect();
     let mask = Mask::from_bools(inside)?;
     if mask.count() == 0 {

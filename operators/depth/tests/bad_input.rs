@@ -38,6 +38,30 @@ fn eight_bit_png_is_rejected() {
     assert_eq!(read_mask_png(&path).unwrap().count(), PIXELS);
 }
 
+/// A depth frame given where a mask is expected is refused, by name, rather than read as a
+/// mask of every valid pixel; a label image of a few people or parts is still a mask.
+#[test]
+fn a_depth_image_is_not_a_mask() {
+    let dir = scratch("depth-as-mask");
+    let depth = dir.join("000001_depth.png");
+    let ramp: Vec<u16> = (0..PIXELS).map(|i| 500 + (i % 4000) as u16).collect();
+    write_depth_png(&depth, &DepthFrame::from_mm(ramp).unwrap()).unwrap();
+    let err = read_mask_png(&depth).unwrap_err();
+    assert!(matches!(err, Error::NotAMask { .. }), "{err:?}");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("000001_depth.png") && msg.contains("depth image"),
+        "{msg}"
+    );
+    let labels = dir.join("labels.png");
+    let six: Vec<u8> = (0..PIXELS).map(|i| (i % 7) as u8).collect();
+    write_gray8_png(&labels, WIDTH, HEIGHT, &six).unwrap();
+    assert_eq!(
+        read_mask_png(&labels).unwrap().count(),
+        PIXELS - PIXELS.div_ceil(7)
+    );
+}
+
 /// A PNG of the wrong size names both sizes.
 #[test]
 fn wrong_size_is_rejected() {
