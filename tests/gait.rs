@@ -207,24 +207,23 @@ fn table_and_plots() {
     }
     // A file where the directory should be is named as such, and nothing is printed.
     let file = dir.join("07_01_footfall.svg");
-    let out = trigait(&[
-        "gait",
-        path.to_str().unwrap(),
-        "--plots",
-        file.to_str().unwrap(),
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        out.stdout.is_empty(),
-        "{}",
-        String::from_utf8_lossy(&out.stdout)
+    let out = fails_with(
+        &[
+            "gait",
+            path.to_str().unwrap(),
+            "--plots",
+            file.to_str().unwrap(),
+        ],
+        "is a file",
     );
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("is a file"), "{err}");
+    let printed = String::from_utf8_lossy(&out.stdout);
+    assert!(printed.is_empty(), "{printed}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
-fn fails_with(args: &[&str], needle: &str) {
+/// Runs `trigait` with `args`, asserts exit 2 with `needle` in stderr and no panic, and returns
+/// the output.
+fn fails_with(args: &[&str], needle: &str) -> Output {
     let out = trigait(args);
     assert_eq!(
         out.status.code(),
@@ -237,6 +236,7 @@ fn fails_with(args: &[&str], needle: &str) {
         "{args:?}: stderr {err:?} lacks {needle:?}"
     );
     assert!(!err.contains("panicked"), "{err}");
+    out
 }
 
 /// Broken input is a clear message and exit code 2, never a panic: a missing file, a file of
