@@ -170,6 +170,69 @@ fn recorded_trial_replays_to_the_same_poses() {
         common.len(),
         &differing[..differing.len().min(10)]
     );
+
+    replays_one_absurd_number_unfused(&live.out_dir, &a);
+}
+
+/// One coordinate of the recording overwritten with 1e300 (a corrupted byte, a unit slip): the
+/// replay records the frame as it came, but `sync` leaves that joint out before it is fused or
+/// interpolated into its neighbours, and the summary counts it. Before, the fused joint went
+/// to 1e298 m in two poses, with a small sigma, and into every export.
+fn replays_one_absurd_number_unfused(recording: &Path, live: &BTreeMap<(i64, Joint), [f64; 3]>) {
+    let dir = common::scratch_dir("recording", "absurd");
+    let text = std::fs::read_to_string(recording.join(FRAMES_FILE)).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let x = header.iter().position(|c| *c == "x_m").unwrap();
+    let row = lines.len() / 2;
+    let mut cells: Vec<String> = lines[row].split(',').map(str::to_owned).collect();
+    cells[x] = "1e300".to_owned();
+    lines[row] = cells.join(",");
+    std::fs::write(dir.join(FRAMES_FILE), lines.join("\n") + "\n").unwrap();
+    std::fs::copy(recording.join(RIG_FILE), dir.join(RIG_FILE)).unwrap();
+    let replay = std::fs::read_to_string(workspace().join("dataflows/replay-recording.yml"))
+        .unwrap()
+        .replace(
+            "../out/frames.csv",
+            &dir.join(FRAMES_FILE).display().to_string(),
+        )
+        .replace("../out/rig.yml", &dir.join(RIG_FILE).display().to_string());
+    let (child, graph_dir) = spawn_graph("record-replay-absurd", &replay, "8s");
+    let run = finish(child, graph_dir);
+    assert!(run.success, "replay failed:\n{}", run.log);
+    let summary = run.summary();
+    let impossible: u64 = summary["impossible_joints"]
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|v| v.as_u64().unwrap())
+        .sum();
+    assert_eq!(impossible, 1, "{summary:#}");
+    // The frame is recorded as it came.
+    let recorded = read_frames(&run.out_dir.join(FRAMES_FILE)).unwrap();
+    assert!(
+        recorded
+            .iter()
+            .flat_map(|f| &f.joints)
+            .any(|j| j.position_in_kinect.x == 1e300),
+        "the absurd number was not recorded"
+    );
+    let replayed = poses(&run.out_dir);
+    let farthest = replayed
+        .values()
+        .flatten()
+        .fold(0.0_f64, |m, c| m.max(c.abs()));
+    assert!(farthest < 20.0, "a fused coordinate of {farthest:e} m");
+    // Everything but that joint's neighbourhood is fused as live.
+    let same = replayed
+        .iter()
+        .filter(|(k, p)| live.get(k).is_some_and(|q| distance(**p, *q) < 1e-6))
+        .count();
+    assert!(
+        same + 10 >= live.len(),
+        "{same} of {} live positions fused the same",
+        live.len()
+    );
 }
 
 /// `trigait calibrate --recording` on the live run's recording, started from a rig moved by up

@@ -217,7 +217,9 @@ impl Recorder {
         match FrameTiming::decode_many(array) {
             Ok(rows) => {
                 for row in &rows {
-                    self.stats.push_frame(&row.sensor_id, row.seq, now);
+                    let impossible = row.joints.iter().filter(|j| !j.is_possible()).count();
+                    self.stats
+                        .push_frame(&row.sensor_id, row.seq, impossible as u64, now);
                 }
                 self.stats.push_timing(&rows);
                 if let Some(lines) = &mut self.lines {

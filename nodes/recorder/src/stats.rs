@@ -73,6 +73,7 @@ struct SensorFrames {
     count: u64,
     last_seq: Option<u64>,
     seq_gaps: u64,
+    impossible_joints: u64,
     last_arrival_nanos: Option<i64>,
     gaps: Vec<Gap>,
 }
@@ -108,6 +109,10 @@ pub struct Summary {
     /// numbers, counted from 0), as `sync` saw them: it forwards every frame it receives in
     /// `frame_timing`.
     pub frames_lost: BTreeMap<String, u64>,
+    /// Joint reports per source that no sensor could have measured (not finite, behind it or
+    /// farther than [`trigait_skeleton::MAX_REPORT_RANGE_M`]): recorded as they came, left out
+    /// of the fusion by `sync`.
+    pub impossible_joints: BTreeMap<String, u64>,
     /// Fused poses received.
     pub sets_fused: u64,
     /// Sets never received (gaps in the set sequence).
@@ -562,10 +567,12 @@ impl Stats {
         }
     }
 
-    /// A raw frame of `sensor` arrived at `now_nanos`.
-    pub fn push_frame(&mut self, sensor: &str, seq: u64, now_nanos: i64) {
+    /// A raw frame of `sensor` arrived at `now_nanos` with `impossible_joints` joint reports
+    /// no sensor could have measured.
+    pub fn push_frame(&mut self, sensor: &str, seq: u64, impossible_joints: u64, now_nanos: i64) {
         let f = self.frames.entry(sensor.to_owned()).or_default();
         f.count += 1;
+        f.impossible_joints += impossible_joints;
         match f.last_seq {
             // Sources number their frames from 0 and start sending only once every node of the
             // graph is up, so a first frame with seq k means k frames never arrived.
@@ -641,6 +648,11 @@ impl Stats {
                 .frames
                 .iter()
                 .map(|(k, f)| (k.clone(), f.seq_gaps))
+                .collect(),
+            impossible_joints: self
+                .frames
+                .iter()
+                .map(|(k, f)| (k.clone(), f.impossible_joints))
                 .collect(),
             sets_fused: self.sets,
             dropped_sets: self.dropped_sets,

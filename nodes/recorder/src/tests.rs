@@ -175,8 +175,9 @@ fn summary_scores_and_counts() {
         },
     ]);
     // Frames 2 and 3 of k1 never arrive.
-    for (seq, t) in [(0, 0), (1, 33_000_000), (4, 400_000_000)] {
-        stats.push_frame("k1", seq, t);
+    // Frame 1 reports a joint no sensor could have measured.
+    for (seq, impossible, t) in [(0, 0, 0), (1, 1, 33_000_000), (4, 0, 400_000_000)] {
+        stats.push_frame("k1", seq, impossible, t);
     }
     let s = stats.summary(1_000_000_000, true);
     assert_eq!((s.warmup.poses, s.warmup.latency_ms.count), (0, 0));
@@ -202,6 +203,7 @@ fn summary_scores_and_counts() {
     );
     assert_eq!(s.frames_in["k1"], 3);
     assert_eq!(s.frames_lost["k1"], 2);
+    assert_eq!(s.impossible_joints["k1"], 1);
 }
 
 /// Percentiles of nothing are zeros, of one value that value.

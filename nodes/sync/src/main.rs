@@ -20,6 +20,7 @@ use eyre::{Context, bail};
 use tracing::{info, warn};
 use trigait_node_config::RigStamp;
 use trigait_schema::{FrameTiming, Message, NtpExchange, SkeletonFrameMessage, ports};
+use trigait_skeleton::MAX_REPORT_RANGE_M;
 use trigait_sync::{AlignedSet, Error as SyncError, NtpSchedule, SampleOutcome, SyncBuffer};
 
 use crate::config::Config;
@@ -117,6 +118,9 @@ pub struct Counters {
     pub malformed: u64,
     /// Frames dropped by the buffer (not synchronised yet, late, from the future, …).
     pub frames_dropped: u64,
+    /// Joint reports left out as no sensor could have measured them
+    /// ([`trigait_skeleton::JointSample::is_possible`]).
+    pub impossible_joints: u64,
     /// Sets still waiting for frames when the graph was stopped (not sent: nothing sent after
     /// a stop is delivered).
     pub sets_unfinished_at_stop: u64,
@@ -259,12 +263,13 @@ pub fn run(
     state.finish(&mut node, stopped)?;
     let c = state.buffer.counters();
     info!(
-        "frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; NTP in {} rejected {} steps {}; sets sent {} ({} incomplete, {} empty; {} without waiting for an overdue frame, {} at the deadline), {} unfinished at the stop",
+        "frames in {}, unsynchronised {}, late {}, evicted {}, from future {}; impossible joints left out {}; NTP in {} rejected {} steps {}; sets sent {} ({} incomplete, {} empty; {} without waiting for an overdue frame, {} at the deadline), {} unfinished at the stop",
         c.frames_in,
         c.frames_unsynchronised,
         c.frames_late,
         c.frames_evicted,
         c.frames_from_future,
+        state.counters.impossible_joints,
         c.ntp_in,
         c.ntp_rejected,
         c.clock_steps,
@@ -502,6 +507,8 @@ impl State {
             now,
         ));
         let sent = get_integer_param(params, ports::SENT_NANOS).unwrap_or(now);
+        let mut frame = frame;
+        self.drop_impossible(&mut frame);
         match self.buffer.push(frame) {
             Ok(sets) => {
                 let sets: Vec<AlignedSet> = sets.collect();
@@ -550,7 +557,7 @@ impl State {
     fn on_recorded_frame(
         &mut self,
         node: &mut DoraNode,
-        frame: trigait_skeleton::SkeletonFrame,
+        mut frame: trigait_skeleton::SkeletonFrame,
         params: &MetadataParameters,
         last_frame: bool,
         now: i64,
@@ -559,19 +566,21 @@ impl State {
         let uncertainty = get_integer_param(params, ports::RECORDED_UNCERTAINTY_NANOS);
         let received = get_integer_param(params, ports::RECORDED_RECEIVED_NANOS);
         let sensor = frame.sensor_id.clone();
+        let timing = FrameTiming {
+            sensor_id: frame.sensor_id.clone(),
+            seq: frame.seq,
+            local_stamp_nanos: frame.local_stamp_nanos,
+            server_stamp_nanos: server,
+            uncertainty_nanos: server.map(|_| uncertainty.unwrap_or(0)),
+            offset_nanos: None,
+            drift_ppm: None,
+            true_stamp_nanos: get_integer_param(params, ports::TRUE_STAMP_NANOS),
+            received_nanos: received,
+            joints: frame.joints.clone(),
+        };
+        self.drop_impossible(&mut frame);
         let replayed = Replayed {
-            timing: FrameTiming {
-                sensor_id: frame.sensor_id.clone(),
-                seq: frame.seq,
-                local_stamp_nanos: frame.local_stamp_nanos,
-                server_stamp_nanos: server,
-                uncertainty_nanos: server.map(|_| uncertainty.unwrap_or(0)),
-                offset_nanos: None,
-                drift_ppm: None,
-                true_stamp_nanos: get_integer_param(params, ports::TRUE_STAMP_NANOS),
-                received_nanos: received,
-                joints: frame.joints.clone(),
-            },
+            timing,
             frame,
             sent_nanos: get_integer_param(params, ports::SENT_NANOS).unwrap_or(now),
             last_frame,
@@ -585,6 +594,25 @@ impl State {
             self.replayed.finished(&sensor);
         }
         self.take_replayed(node)
+    }
+
+    /// Leaves out of `frame` the joints no sensor could have measured, before they are fused
+    /// or interpolated into their neighbours, and counts them; the recording (`frame_timing`)
+    /// keeps the frame as it came. The first such joint is logged.
+    fn drop_impossible(&mut self, frame: &mut trigait_skeleton::SkeletonFrame) {
+        let impossible = frame.drop_impossible() as u64;
+        if impossible == 0 {
+            return;
+        }
+        if self.counters.impossible_joints == 0 {
+            warn!(
+                sensor = %frame.sensor_id,
+                "left out a joint no sensor could have measured (not finite, behind the sensor \
+                 or farther than {MAX_REPORT_RANGE_M} m): a corrupted recording or a unit slip? \
+                 (all such are counted at the end)"
+            );
+        }
+        self.counters.impossible_joints += impossible;
     }
 
     /// Takes in the replayed frames whose turn has come.

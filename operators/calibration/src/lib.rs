@@ -49,6 +49,8 @@ use trigait_skeleton::{Joint, JointSample, TrackingState};
 
 pub use gauge::{Gauge, Tracks};
 pub use rigfile::{rig_file, yaw_pitch_roll_deg};
+/// How far from its sensor a joint report can be and still have been measured.
+pub use trigait_skeleton::MAX_REPORT_RANGE_M;
 
 use adjust::{Obs, Problem};
 use interp::{JointTrack, Limits};
@@ -377,10 +379,6 @@ const MIN_HANDEDNESS_SPEED_MPS: f64 = 0.3;
 /// bounded one gives up and the caller treats the matrix as degenerate instead of hanging.
 pub(crate) const MAX_DECOMPOSITION_ITERATIONS: usize = 10_000;
 
-/// A joint reported farther from its sensor than this cannot have been measured, metres: a
-/// Kinect v2 reads depth to 8 m and tracks skeletons to about 4.5 m. Such reports (a corrupted
-/// file, a unit slip) are left out and counted, as are non-finite ones and ones behind it.
-pub const MAX_REPORT_RANGE_M: f64 = 20.0;
 /// Half-window over which the pelvis velocity is measured for the handedness check, seconds.
 const HANDEDNESS_WINDOW_SECS: f64 = 0.2;
 /// The hips must lie at least this far to one side to decide handedness, metres (hip joint
@@ -447,9 +445,7 @@ fn clean(track: &SensorTrack, joints: &[Joint]) -> Cleaned {
                 .iter()
                 .filter(|s| s.is_measured())
                 .filter(|s| {
-                    let p = s.position_in_kinect;
-                    // The norm of an overflowing coordinate is infinite, and NaN fails both.
-                    let possible = p.z > 0.0 && p.coords.norm() <= MAX_REPORT_RANGE_M;
+                    let possible = s.is_possible();
                     impossible += usize::from(!possible);
                     reports += 1;
                     possible

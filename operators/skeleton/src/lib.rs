@@ -13,5 +13,5 @@ mod frame;
 mod joint;
 
 pub use clip::{ClipError, MotionClip, frame_runs};
-pub use frame::{JointSample, SkeletonFrame};
+pub use frame::{JointSample, MAX_REPORT_RANGE_M, SkeletonFrame};
 pub use joint::{Joint, Side, TrackingState};
