@@ -45,6 +45,12 @@ fn recorded_trial_replays_to_the_same_poses() {
     let (child, dir) = spawn_graph("record-live", &graph, "8s");
     let live = finish(child, dir);
     assert!(live.success, "live run failed:\n{}", live.log);
+    // A clean run's trajectory.csv grows to its end without a word.
+    assert!(
+        !live.log.contains("not extended while the run goes"),
+        "{}",
+        live.log
+    );
     let frames = read_frames(&live.out_dir.join(FRAMES_FILE)).unwrap();
     let summary = live.summary();
     for k in ["k1", "k2", "k3"] {
@@ -96,6 +102,9 @@ fn recorded_trial_replays_to_the_same_poses() {
     let (child, dir) = spawn_graph("record-replay", &replay, "8s");
     let replayed = finish(child, dir);
     assert!(replayed.success, "replay failed:\n{}", replayed.log);
+    // Every row of the replay's .rrd is on the `time` timeline: the unsynchronised frames at
+    // the recording's start are drawn when they were received then, not on this run's clock.
+    assert!(!replayed.log.contains("can't set time"), "{}", replayed.log);
     replayed.assert_sets_delivered();
 
     // The replaying `sync` took in the recorded frames in the recorded order, on the recorded

@@ -338,6 +338,10 @@ impl LiveCsv {
         let Some(csv) = &mut self.csv else {
             return Ok(());
         };
+        if rows.rows.is_empty() {
+            // Nothing new (the run's last update carries only the raw recording's lines).
+            return Ok(());
+        }
         if rows.first_frame != csv.frames() {
             warn!(
                 "trajectory.csv has {} frames but the next rows start at frame {}: not extended while the run goes",

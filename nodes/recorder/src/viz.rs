@@ -192,8 +192,12 @@ impl Viz {
         self.rec.reset_time();
         self.rec
             .set_timestamp_nanos_since_epoch(SERVER_TIME, stamp_nanos);
-        self.rec
-            .set_duration_secs(TIME, (stamp_nanos - start) as f64 * 1e-9);
+        // The `time` timeline counts from the first instant drawn and cannot go below it; an
+        // earlier instant is drawn on `server_time` only.
+        if stamp_nanos >= start {
+            self.rec
+                .set_duration_secs(TIME, (stamp_nanos - start) as f64 * 1e-9);
+        }
     }
 
     fn sensor_colour(&self, id: &str) -> Color {
@@ -439,9 +443,15 @@ pub fn log_pose(
     Ok(())
 }
 
-/// One raw frame, drawn in its sensor's camera frame at `now_nanos`.
+/// One raw frame, drawn in its sensor's camera frame at its server stamp, else when `sync`
+/// received it (a replay's recorded instant, not this run's clock), else at `now_nanos`.
 pub fn log_raw(viz: &Viz, frame: &FrameTiming, now_nanos: i64) -> eyre::Result<()> {
-    viz.set_time(frame.server_stamp_nanos.unwrap_or(now_nanos));
+    viz.set_time(
+        frame
+            .server_stamp_nanos
+            .or(frame.received_nanos)
+            .unwrap_or(now_nanos),
+    );
     viz.rec.log(
         format!("world/sensors/{}/joints", frame.sensor_id),
         &rerun::Points3D::new(frame.joints.iter().map(|s| f32x3(&s.position_in_kinect)))

@@ -184,6 +184,8 @@ fn parse_trc(path: &Path, text: &str) -> Result<MarkerSet> {
     }
     let mut frames = Vec::with_capacity(data_lines.len());
     let mut last_time: Option<f64> = None;
+    // (row index, line, time) of the first timed row, to check the Time column's rate.
+    let mut first_time: Option<(usize, usize, f64)> = None;
     for (k, (line_no, l)) in data_lines.iter().enumerate() {
         let fields: Vec<&str> = l.split('\t').map(str::trim).collect();
         let is_last = k + 1 == data_lines.len();
@@ -246,6 +248,25 @@ fn parse_trc(path: &Path, text: &str) -> Result<MarkerSet> {
                     format!("time {time} after {before}: times must increase (a repeated row?)"),
                 ));
             }
+            if let Some(before) = last_time
+                && time - before > MAX_TIME_STEP_FRAMES / rate_hz
+            {
+                return Err(trc_error(
+                    path,
+                    *line_no,
+                    format!(
+                        "time {time} s after {before} s: a jump of {:.0} frames at the {rate_hz} Hz \
+                         of DataRate (rows missing?); rows must follow each other evenly",
+                        (time - before) * rate_hz
+                    ),
+                ));
+            }
+            first_time.get_or_insert((k, *line_no, time));
+            if let Some((k0, line0, t0)) = first_time
+                && k > k0
+            {
+                check_time_rate(path, (k0, line0, t0), (k, *line_no, time), rate_hz)?;
+            }
             last_time = Some(time);
         }
         let mut row = Vec::with_capacity(labels.len());
@@ -290,12 +311,52 @@ fn parse_trc(path: &Path, text: &str) -> Result<MarkerSet> {
     MarkerSet::new(name, rate_hz, labels, frames)
 }
 
-/// Formats a rate so that whole numbers keep one decimal (`100.0`), as OpenSim writes them.
+/// Most frames of `DataRate` between two rows' times before rows count as missing: times
+/// are written rounded (at 120 Hz to three decimals, steps of 8 and 9 ms alternate).
+const MAX_TIME_STEP_FRAMES: f64 = 1.5;
+
+/// Most relative difference between `DataRate` and the rate the Time column advances at over
+/// the rows read so far; only checked over at least a second (a step's rounding then counts
+/// for little).
+const MAX_TIME_RATE_MISMATCH: f64 = 0.02;
+
+/// Whether the Time column from `first` to `now` (row index, line, time) advances at the
+/// `rate_hz` the header declares; a header that says 50 Hz over times 10 ms apart would halve
+/// every duration read from the file.
+fn check_time_rate(
+    path: &Path,
+    (k0, _, t0): (usize, usize, f64),
+    (k, line_no, t): (usize, usize, f64),
+    rate_hz: f64,
+) -> Result<()> {
+    let span = t - t0;
+    if span < 1.0 {
+        return Ok(());
+    }
+    let column_hz = (k - k0) as f64 / span;
+    if (column_hz / rate_hz - 1.0).abs() > MAX_TIME_RATE_MISMATCH {
+        return Err(trc_error(
+            path,
+            line_no,
+            format!(
+                "DataRate says {rate_hz} Hz but the Time column advances at {column_hz:.2} Hz \
+                 ({} rows in {span:.3} s): which is the file's rate?",
+                k - k0 + 1
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Formats a rate to at most six decimals, whole numbers with one (`100.0`), as OpenSim writes
+/// them: a rate measured on a clock (30.000000300000004 Hz) reads as the 30.0 it is.
 fn rate_text(rate_hz: f64) -> String {
-    if rate_hz.fract() == 0.0 {
-        format!("{rate_hz:.1}")
+    let text = format!("{rate_hz:.6}");
+    let text = text.trim_end_matches('0');
+    if text.ends_with('.') {
+        format!("{text}0")
     } else {
-        format!("{rate_hz}")
+        text.to_owned()
     }
 }
 
@@ -432,5 +493,57 @@ Frame#\tTime\tA\t\t\tB\t\t\n\
             parse_trc(Path::new("x.trc"), "hello\nworld\n"),
             Err(Error::Trc { line: 1, .. })
         ));
+    }
+
+    /// A TRC of `frames` rows, `step_secs` apart in the Time column written to `decimals`,
+    /// under a `DataRate` of `rate_hz`; rows whose index `skip` holds are left out.
+    fn timed(
+        rate_hz: f64,
+        frames: usize,
+        step_secs: f64,
+        skip: &[usize],
+        decimals: usize,
+    ) -> String {
+        let kept: Vec<usize> = (0..frames).filter(|k| !skip.contains(k)).collect();
+        let mut text = format!(
+            "PathFileType\t4\t(X/Y/Z)\tx.trc\nDataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\n\
+             {rate_hz}\t{rate_hz}\t{}\t1\tmm\nFrame#\tTime\tA\t\t\n\t\tX1\tY1\tZ1\n\n",
+            kept.len()
+        );
+        for k in kept {
+            text += &format!("{}\t{:.decimals$}\t1\t2\t3\n", k + 1, k as f64 * step_secs);
+        }
+        text
+    }
+
+    #[test]
+    fn rates_are_written_as_people_write_them() {
+        assert_eq!(rate_text(100.0), "100.0");
+        assert_eq!(rate_text(30.000000300000004), "30.0");
+        assert_eq!(rate_text(29.97), "29.97");
+        assert_eq!(rate_text(1.0 / 3.0), "0.333333");
+    }
+
+    /// The Time column is the file's clock too: a header rate it does not keep, or rows missing
+    /// from it, are errors that say so, instead of durations read wrong.
+    #[test]
+    fn the_time_column_keeps_the_data_rate() {
+        let read = |text: &str| parse_trc(Path::new("x.trc"), text);
+        // 120 Hz written to five decimals, and to three (steps of 8 and 9 ms alternate).
+        for decimals in [5, 3] {
+            let set = read(&timed(120.0, 600, 1.0 / 120.0, &[], decimals)).unwrap();
+            assert_eq!(set.frame_count(), 600);
+        }
+        let halved = read(&timed(50.0, 300, 0.01, &[], 5))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            halved.contains("DataRate says 50 Hz") && halved.contains("100.00 Hz"),
+            "{halved}"
+        );
+        let holed = read(&timed(100.0, 300, 0.01, &(100..131).collect::<Vec<_>>(), 5))
+            .unwrap_err()
+            .to_string();
+        assert!(holed.contains("a jump of 32 frames"), "{holed}");
     }
 }
