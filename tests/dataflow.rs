@@ -637,6 +637,38 @@ fn killing_the_recorder_mid_run_keeps_its_files() {
     );
 }
 
+/// The recorder told to stream to a viewer that is not running: the run ends on time, says
+/// once that no viewer takes the stream, and its `.rrd` holds every fused pose. Before, the
+/// recorder's logging waited for the viewer after 100 messages, the `.rrd` stopped at 57
+/// rows, and the recorder never exited.
+#[test]
+fn a_viewer_that_is_not_there_holds_up_nothing() {
+    let graph = std::fs::read_to_string(workspace().join("dataflow.yml"))
+        .unwrap()
+        .replace(
+            "      OUTPUT_DIR: out\n",
+            // A port nothing listens on.
+            "      OUTPUT_DIR: out\n      RERUN_CONNECT: rerun+http://127.0.0.1:9/proxy\n",
+        );
+    assert!(graph.contains("RERUN_CONNECT"));
+    let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let (child, dir) = spawn_graph("no-viewer", &graph, "5s");
+    let run = finish(child, dir);
+    assert!(run.success, "{}", run.log);
+    assert_eq!(
+        run.log.matches("no rerun viewer takes the stream").count(),
+        1,
+        "{}",
+        run.log
+    );
+    let s = run.summary();
+    assert_eq!(s["complete"], true, "{s:#}");
+    let sets = s["sets_fused"].as_u64().unwrap();
+    assert!(sets > 100, "{s:#}");
+    let fused = run.rrd().temporal.get("world/fused").copied().unwrap_or(0);
+    assert_eq!(fused, sets, "fused rows in the .rrd against poses fused");
+}
+
 /// A malformed rig file, an unknown policy, an unknown estimator and nodes given different rigs
 /// each stop the graph with an error naming the node and the key (for rigs: both nodes).
 #[test]

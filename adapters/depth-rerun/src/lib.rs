@@ -74,9 +74,13 @@ pub fn open(app_id: &'static str, sink: &Sink) -> Result<RecordingStream, String
                 .save(path)
                 .map_err(|e| format!("opening {}: {e}", path.display()))
         }
-        Sink::Connect(url) => builder
-            .connect_grpc_opts(url.clone())
-            .map_err(|e| format!("connecting to {url:?}: {e}")),
+        Sink::Connect(url) => {
+            let viewer: Box<dyn rerun::sink::LogSink> =
+                Box::new(trigait_rerun_viewer::ViewerSink::new(url)?);
+            builder
+                .set_sinks(vec![viewer])
+                .map_err(|e| format!("connecting to {url:?}: {e}"))
+        }
     }
 }
 

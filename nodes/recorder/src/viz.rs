@@ -261,20 +261,20 @@ pub fn open(config: &Config) -> eyre::Result<Viz> {
                 .with_context(|| format!("recorder: RRD={}", path.display()))?
         }
         (None, Some(url)) => builder
-            .connect_grpc_opts(url.clone())
+            .set_sinks(vec![viewer_sink(url)?])
             .with_context(|| format!("recorder: RERUN_CONNECT={url:?}"))?,
         (Some(path), Some(url)) => {
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)
                     .with_context(|| format!("recorder: creating {}", dir.display()))?;
             }
-            let uri: rerun::external::re_uri::ProxyUri = url
-                .parse()
-                .with_context(|| format!("recorder: RERUN_CONNECT={url:?} is not a proxy url"))?;
             let file = rerun::sink::FileSink::new(path)
                 .with_context(|| format!("recorder: RRD={}", path.display()))?;
             builder
-                .set_sinks((file, rerun::sink::GrpcSink::new(uri)))
+                .set_sinks(vec![
+                    Box::new(file) as Box<dyn rerun::sink::LogSink>,
+                    viewer_sink(url)?,
+                ])
                 .context("recorder: opening the rerun sinks")?
         }
         (None, None) => builder.buffered().context("recorder: opening rerun")?,
@@ -285,6 +285,15 @@ pub fn open(config: &Config) -> eyre::Result<Viz> {
         declared: Arc::new(Mutex::new(BTreeSet::new())),
         sensors: Arc::new(config.rig.sensors.iter().map(|s| s.id.clone()).collect()),
     })
+}
+
+/// The live viewer at `url`, which never makes the recorder wait ([`ViewerSink`]).
+///
+/// [`ViewerSink`]: trigait_rerun_viewer::ViewerSink
+fn viewer_sink(url: &str) -> eyre::Result<Box<dyn rerun::sink::LogSink>> {
+    let sink = trigait_rerun_viewer::ViewerSink::new(url)
+        .map_err(|e| eyre::eyre!("recorder: RERUN_CONNECT={e}"))?;
+    Ok(Box::new(sink))
 }
 
 /// Sends the default layout ([`crate::blueprint`]) before any data, so a file and a live viewer
