@@ -36,6 +36,8 @@ impossible = {k: v for k, v in s.get("impossible_joints", {}).items() if v}
 if impossible:
     print(f"  impossible joints: {', '.join(f'{k} {v}' for k, v in impossible.items())} (not finite, behind the sensor or beyond 20 m: recorded, not fused)")
 print(f"  sets fused       : {s['sets_fused']}  (dropped {s['dropped_sets']}, incomplete {s['incomplete_sets']})")
+if s.get("estimators"):
+    print(f"  estimator        : {', '.join(f'{k} ({v} joints)' for k, v in s['estimators'].items())}")
 if s.get("rmse_all_m") is not None:
     print(f"  RMSE vs truth    : {s['rmse_all_m'] * 1000:.1f} mm over {s['truth_samples']} joint samples")
     for j, r in s["rmse_m"].items():

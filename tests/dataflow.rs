@@ -669,8 +669,9 @@ fn a_viewer_that_is_not_there_holds_up_nothing() {
     assert_eq!(fused, sets, "fused rows in the .rrd against poses fused");
 }
 
-/// A malformed rig file, an unknown policy, an unknown estimator and nodes given different rigs
-/// each stop the graph with an error naming the node and the key (for rigs: both nodes).
+/// A malformed rig file, an unknown policy, an unknown estimator, nodes given different rigs, a
+/// misspelt input id and a source given another's `SENSOR_ID` each stop the graph with an error naming the node and
+/// the key (for rigs: both nodes; for the sensor: the input and the id it carries).
 #[test]
 fn config_errors_stop_the_graph_naming_node_and_key() {
     let graph = std::fs::read_to_string(workspace().join("dataflow.yml")).unwrap();
@@ -712,6 +713,22 @@ fn config_errors_stop_the_graph_naming_node_and_key() {
                 "      SENSOR_ID: k2\n      RIG: ring-3",
             ),
             "sync: the sources disagree on the rig",
+            false,
+        ),
+        (
+            "misspelt-input",
+            graph.replace(
+                "      fused_pose:\n        source: trilaterate/fused_pose",
+                "      fused_poses:\n        source: trilaterate/fused_pose",
+            ),
+            "recorder: input \"fused_poses\" is not one it reads",
+            true,
+        ),
+        (
+            // A copied source block whose SENSOR_ID was not changed.
+            "copied-sensor-id",
+            graph.replace("      SENSOR_ID: k3\n", "      SENSOR_ID: k2\n"),
+            "sync: input |k3 carries messages of sensor \"k2\"",
             false,
         ),
         (

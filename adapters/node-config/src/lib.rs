@@ -23,6 +23,51 @@ use std::str::FromStr;
 
 use eyre::bail;
 
+/// Checks the input ids the node's YAML gives it (`declared`) against the ones it reads: every
+/// `required` one present, nothing but `required` and `optional` ones. A misspelt input id
+/// otherwise leaves the node waiting for a message that never comes, while the run ends as if
+/// all were well.
+///
+/// # Errors
+/// `"{node}: input {id:?} is not one it reads (…): a misspelt id?"`, or
+/// `"{node}: no input {id:?} among its inputs (…)"`.
+pub fn check_inputs<'a>(
+    node: &str,
+    declared: impl IntoIterator<Item = &'a str>,
+    required: &[&str],
+    optional: &[&str],
+) -> eyre::Result<()> {
+    let declared: Vec<&str> = declared.into_iter().collect();
+    let reads = || {
+        required
+            .iter()
+            .chain(optional)
+            .map(|id| format!("{id:?}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if let Some(id) = declared
+        .iter()
+        .find(|id| !required.contains(id) && !optional.contains(id))
+    {
+        bail!(
+            "{node}: input {id:?} is not one it reads ({}): a misspelt id?",
+            reads()
+        );
+    }
+    if let Some(id) = required.iter().find(|id| !declared.contains(id)) {
+        bail!(
+            "{node}: no input {id:?} among its inputs ({}): it has nothing to work on",
+            declared
+                .iter()
+                .map(|id| format!("{id:?}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(())
+}
+
 /// `key` parsed as `T` and accepted by `ok`, or `None` when it is not set.
 ///
 /// # Errors
@@ -196,6 +241,28 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use super::*;
+
+    #[test]
+    fn inputs_are_checked_by_name() {
+        let ok = check_inputs(
+            "rec",
+            ["fused_pose", "ground_truth"],
+            &["fused_pose"],
+            &["ground_truth"],
+        );
+        assert!(ok.is_ok());
+        let typo = check_inputs("rec", ["fused_poses"], &["fused_pose"], &[]).unwrap_err();
+        assert!(
+            typo.to_string()
+                .contains("rec: input \"fused_poses\" is not one it reads (\"fused_pose\")"),
+            "{typo}"
+        );
+        let none = check_inputs("rec", [], &["fused_pose"], &[]).unwrap_err();
+        assert!(
+            none.to_string().contains("no input \"fused_pose\""),
+            "{none}"
+        );
+    }
 
     fn env(pairs: &'static [(&'static str, &'static str)]) -> impl Fn(&str) -> Option<String> {
         move |k| {

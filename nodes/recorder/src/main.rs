@@ -40,6 +40,12 @@ fn main() -> eyre::Result<()> {
     let config = Config::from_env()?;
     let (node, events) =
         DoraNode::init_from_env().context("recorder: connecting to the dora daemon")?;
+    trigait_node_config::check_inputs(
+        "recorder",
+        node.node_config().inputs.keys().map(|id| id.as_str()),
+        &[ports::FUSED_POSE],
+        &[ports::FRAME_TIMING, ports::GROUND_TRUTH],
+    )?;
     run(config, node, events).map(|_| ())
 }
 

@@ -42,6 +42,7 @@ pub struct Stats {
     joints_fused: u64,
     joints_skipped: u64,
     skip_reasons: BTreeMap<String, u64>,
+    estimators: BTreeMap<String, u64>,
     sync_wait: SyncWait,
     frames: BTreeMap<String, SensorFrames>,
     /// Inputs that could not be decoded.
@@ -127,6 +128,9 @@ pub struct Summary {
     pub empty_poses: u64,
     /// Fused joints by the number of sensors the estimate used.
     pub joints_by_sensors_used: BTreeMap<usize, u64>,
+    /// Fused joints by the estimator that fused them (`trilaterate`'s `METHOD`, `+robust`
+    /// with `ROBUST`): what ran, whatever the YAML was meant to say.
+    pub estimators: BTreeMap<String, u64>,
     /// Skip reasons and their counts.
     pub skip_reasons: BTreeMap<String, u64>,
     /// Per-joint RMSE against ground truth, metres (simulated sources only).
@@ -412,6 +416,7 @@ impl Stats {
             joints_fused: 0,
             joints_skipped: 0,
             skip_reasons: BTreeMap::new(),
+            estimators: BTreeMap::new(),
             sync_wait: SyncWait::default(),
             frames: BTreeMap::new(),
             malformed: 0,
@@ -486,6 +491,11 @@ impl Stats {
                 .joints_by_sensors_used
                 .entry(fused.sensors_used.len())
                 .or_default() += 1;
+            if let Some(n) = self.estimators.get_mut(&fused.estimator) {
+                *n += 1;
+            } else {
+                self.estimators.insert(fused.estimator.clone(), 1);
+            }
         }
         for reason in pose.skipped.values() {
             *self.skip_reasons.entry(reason.clone()).or_default() += 1;
@@ -661,6 +671,7 @@ impl Stats {
             joints_skipped: self.joints_skipped,
             empty_poses: self.empty_poses,
             joints_by_sensors_used: self.joints_by_sensors_used.clone(),
+            estimators: self.estimators.clone(),
             skip_reasons: self.skip_reasons.clone(),
             rmse_m: self
                 .errors

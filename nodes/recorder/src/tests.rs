@@ -185,6 +185,7 @@ fn summary_scores_and_counts() {
     assert_eq!(s.dropped_sets, 1);
     assert_eq!(s.incomplete_sets, 1);
     assert_eq!(s.joints_skipped, 3);
+    assert_eq!(s.estimators.get("fusion"), Some(&3), "{:?}", s.estimators);
     let rmse = s.rmse_m["knee_left"];
     let expected = (0.03_f64.powi(2) / 3.0).sqrt();
     assert!((rmse - expected).abs() < 1e-9, "{rmse} vs {expected}");

@@ -105,6 +105,18 @@ pub fn sensors_from_inputs<'a>(inputs: impl Iterator<Item = &'a str>) -> eyre::R
     Ok(ids)
 }
 
+/// The error for a message of sensor `theirs` on input `<prefix><sensor>`: every message on an
+/// input of a sensor is that sensor's, so the node feeding it was given another `SENSOR_ID`
+/// or the inputs were swapped. Skipping such messages would fuse the graph's sensors short of
+/// one, without a word on why.
+fn miswired(prefix: &str, sensor: &str, theirs: &str) -> String {
+    format!(
+        "sync: input {prefix}{sensor} carries messages of sensor {theirs:?}: the node wired to it \
+         runs with SENSOR_ID {theirs} (a copied source block whose SENSOR_ID was not changed?), \
+         or the inputs of {sensor} and {theirs} are swapped"
+    )
+}
+
 /// Totals the node reports at the end.
 #[derive(Debug, Default, Clone, PartialEq, Eq)]
 pub struct Counters {
@@ -237,7 +249,7 @@ pub fn run(
                 let array = data.as_array();
                 match Input::parse(id.as_str()) {
                     Input::Tick => state.on_tick(&mut node, now)?,
-                    Input::NtpReply(sensor) => state.on_ntp_reply(sensor, array.as_ref(), now),
+                    Input::NtpReply(sensor) => state.on_ntp_reply(sensor, array.as_ref(), now)?,
                     Input::Frame(sensor) => state.on_frame(
                         &mut node,
                         sensor,
@@ -412,26 +424,25 @@ impl State {
         Ok(())
     }
 
-    /// Feeds an answered NTP request of `sensor` to its clock filter; a malformed or misrouted
-    /// reply is counted and skipped.
-    fn on_ntp_reply(&mut self, sensor: &str, array: &dyn Array, now: i64) {
+    /// Feeds an answered NTP request of `sensor` to its clock filter; a malformed reply is
+    /// counted and skipped.
+    ///
+    /// # Errors
+    /// The reply is another sensor's: the graph is wired wrong.
+    fn on_ntp_reply(&mut self, sensor: &str, array: &dyn Array, now: i64) -> eyre::Result<()> {
         let exchange = match NtpExchange::decode(array) {
             Ok(e) if e.sensor_id == sensor => e.completed(now),
-            Ok(e) => {
-                self.counters.malformed += 1;
-                warn!(%sensor, "skipping an NTP reply of sensor {:?}", e.sensor_id);
-                return;
-            }
+            Ok(e) => bail!(miswired(ports::NTP_INPUT_PREFIX, sensor, &e.sensor_id)),
             Err(e) => {
                 self.counters.malformed += 1;
                 warn!(%sensor, "skipping a malformed NTP reply: {e}");
-                return;
+                return Ok(());
             }
         };
         let Some(sample) = exchange.sample() else {
             self.counters.malformed += 1;
             warn!(%sensor, "skipping an NTP reply without t2/t3");
-            return;
+            return Ok(());
         };
         match self.buffer.push_ntp(sensor, sample) {
             Ok(SampleOutcome::Step {
@@ -455,6 +466,7 @@ impl State {
                 warn!(%sensor, "NTP reply refused: {e}");
             }
         }
+        Ok(())
     }
 
     /// Sends the sets due before a frame of `sensor`, notes its timing, buffers it and sends
@@ -476,11 +488,11 @@ impl State {
         }
         let frame = match SkeletonFrameMessage::decode(array) {
             Ok(m) if m.frame.sensor_id == sensor => m.frame,
-            Ok(m) => {
-                self.counters.malformed += 1;
-                warn!(%sensor, "skipping a frame of sensor {:?}", m.frame.sensor_id);
-                return Ok(());
-            }
+            Ok(m) => bail!(miswired(
+                ports::FRAME_INPUT_PREFIX,
+                sensor,
+                &m.frame.sensor_id
+            )),
             Err(e) => {
                 self.counters.malformed += 1;
                 warn!(%sensor, "skipping a malformed frame: {e}");

@@ -25,6 +25,12 @@ fn main() -> eyre::Result<()> {
     let config = Config::from_env()?;
     let (node, events) =
         DoraNode::init_from_env().context("trilaterate: connecting to the dora daemon")?;
+    trigait_node_config::check_inputs(
+        "trilaterate",
+        node.node_config().inputs.keys().map(|id| id.as_str()),
+        &[ports::ALIGNED_SET],
+        &[],
+    )?;
     run(config, node, events).map(|_| ())
 }
 
@@ -44,6 +50,12 @@ pub struct Counters {
 /// The event loop.
 pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre::Result<Counters> {
     let mut fuser = pose_fuser(&config);
+    info!(
+        "estimator {} on rig {:?} ({} sensors)",
+        config.estimator_name(),
+        config.rig.name,
+        config.rig.sensors.len()
+    );
     let pose_out = DataId::from(ports::FUSED_POSE.to_owned());
     let mut counters = Counters::default();
     let mut warned_unknown = false;
