@@ -38,7 +38,59 @@ fn main() -> eyre::Result<()> {
         node.node_config().outputs.iter().map(|id| id.as_str()),
         &sensors,
     )?;
+    let tick = node
+        .node_config()
+        .inputs
+        .get(&DataId::from(ports::TICK.to_owned()))
+        .map(|input| timer_interval(&input.mapping.to_string()));
+    check_tick(tick)?;
     run(config, sensors, routes, node, events).map(|_| ())
+}
+
+/// The slowest `tick` timer: sets whose deadline passed go out, and NTP requests are sent, on
+/// its ticks, so a slower one delays both (at one a second, no sensor ever synchronised).
+pub const MAX_TICK: std::time::Duration = std::time::Duration::from_millis(20);
+
+/// The interval of a dora timer as its input mapping reads (`dora/timer/millis/10`; dora
+/// writes the coarsest exact unit), `None` for anything else.
+#[must_use]
+pub fn timer_interval(mapping: &str) -> Option<std::time::Duration> {
+    use std::time::Duration;
+    let (unit, value) = mapping.strip_prefix("dora/timer/")?.split_once('/')?;
+    let value: u64 = value.parse().ok()?;
+    match unit {
+        "secs" => Some(Duration::from_secs(value)),
+        "millis" => Some(Duration::from_millis(value)),
+        "micros" => Some(Duration::from_micros(value)),
+        "nanos" => Some(Duration::from_nanos(value)),
+        _ => None,
+    }
+}
+
+/// Checks the `tick` input: present (`None`: missing), a dora timer (`Some(None)`: something
+/// else), at most [`MAX_TICK`] apart.
+///
+/// # Errors
+/// Naming the input and what it must be.
+pub fn check_tick(tick: Option<Option<std::time::Duration>>) -> eyre::Result<()> {
+    let want = format!(
+        "a timer of at most {} ms, e.g. `tick: dora/timer/millis/10`",
+        MAX_TICK.as_millis()
+    );
+    match tick {
+        None => bail!("sync: no `{}` input: it needs {want}", ports::TICK),
+        Some(None) => bail!(
+            "sync: input `{}` is not a dora timer: it needs {want}",
+            ports::TICK
+        ),
+        Some(Some(interval)) if interval > MAX_TICK => bail!(
+            "sync: input `{}` fires every {} ms: it needs {want} (sets go out and NTP requests \
+             are sent on its ticks)",
+            ports::TICK,
+            interval.as_millis()
+        ),
+        Some(Some(_)) => Ok(()),
+    }
 }
 
 /// Where the NTP requests of each sensor go.

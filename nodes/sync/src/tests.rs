@@ -55,6 +55,8 @@ fn config_errors_name_node_key_and_value() {
         ("POLICY", "round-robin"),
         ("INTERPOLATION", "spline"),
         ("FUSION_RATE_HZ", "fast"),
+        // A typo for 30: its sets would outrun every queue of the graph.
+        ("FUSION_RATE_HZ", "100000"),
         ("SLOT_MILLIS", "-3"),
         ("NTP_INTERVAL_MILLIS", "x"),
         ("SENSORS", " , "),
@@ -73,6 +75,34 @@ fn config_errors_name_node_key_and_value() {
         text.contains("slots") && text.contains("interpolate"),
         "lists the valid names: {text}"
     );
+}
+
+/// The tick must be a timer of at most 20 ms: at one a second no sensor synchronised, and the
+/// run ended with two sets and no error.
+#[test]
+fn the_tick_is_a_fast_timer() {
+    use std::time::Duration;
+    assert_eq!(
+        crate::timer_interval("dora/timer/millis/10"),
+        Some(Duration::from_millis(10))
+    );
+    assert_eq!(
+        crate::timer_interval("dora/timer/secs/1"),
+        Some(Duration::from_secs(1))
+    );
+    assert_eq!(crate::timer_interval("k1/frame"), None);
+    assert!(crate::check_tick(Some(Some(Duration::from_millis(10)))).is_ok());
+    for (tick, needle) in [
+        (Some(Some(Duration::from_secs(1))), "fires every 1000 ms"),
+        (Some(None), "is not a dora timer"),
+        (None, "no `tick` input"),
+    ] {
+        let text = crate::check_tick(tick).unwrap_err().to_string();
+        assert!(
+            text.contains(needle) && text.contains("dora/timer/millis/10"),
+            "{text}"
+        );
+    }
 }
 
 /// Sensors come from `frame_<id>` inputs in natural order; each needs its `ntp_<id>`.
