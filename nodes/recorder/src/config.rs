@@ -10,12 +10,13 @@
 //! | `RECORD_FRAMES` | bool | `true` | also write the raw recording: `frames.csv` (every frame of every sensor, sensor-local and server time), `poses.csv` (every fused joint at its absolute instant) and `rig.yml` ([`crate::recording`]) |
 //! | `WARMUP_SECS` | seconds ≥ 0 | `1` | poses this soon after the first are warm-up: their latency is reported apart from the steady state (`summary.json`: `warmup`) |
 //! | `LIVE_UPDATE_SECS` | seconds, 0 or 0.1–60 | `0.5` | bring `trajectory.csv`, `summary.json` (`"complete": false`), the raw recording and the `.rrd` up to date this often while the run goes, so a killed recorder loses at most about that much; the writes run on a writer thread, never on the event loop ([`crate::writer`]); `0`: only at the end |
+//! | `RECORDING` | path | none | in a replay graph, the recording its sources play: an `OUTPUT_DIR` that is its folder is refused, as the replay's own recording would overwrite it |
 //!
 //! Inputs: `fused_pose`, `frame_timing` (every raw frame `sync` received, joints included) and
 //! `ground_truth` (from the one simulated source that sends it; optional) — the same three
 //! whatever the number of sensors.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use eyre::bail;
 use trigait_node_config::{env_flag, env_number_where, env_rig, env_value};
@@ -35,6 +36,8 @@ pub const RECORD_FRAMES: &str = "RECORD_FRAMES";
 pub const WARMUP_SECS: &str = "WARMUP_SECS";
 /// Env var: how often the files are updated while the run goes.
 pub const LIVE_UPDATE_SECS: &str = "LIVE_UPDATE_SECS";
+/// Env var: the recording a replay graph plays (the sources' `RECORDING`).
+pub const RECORDING: &str = "RECORDING";
 
 /// How often the files are updated while the run goes unless told, seconds: a kill loses at
 /// most this plus the time the writer thread takes.
@@ -87,6 +90,9 @@ impl Config {
                 "{NODE}: {RERUN_CONNECT}={url:?} is invalid: expected a rerun gRPC proxy url like rerun+http://127.0.0.1:9876/proxy"
             );
         }
+        if let Some(recording) = lookup(RECORDING).filter(|s| !s.trim().is_empty()) {
+            check_not_over(&out_dir, Path::new(recording.trim()))?;
+        }
         let rig = env_rig(NODE, &lookup)?;
         let ring_capacity = env_value(
             NODE,
@@ -124,4 +130,41 @@ impl Config {
             record_frames: env_flag(NODE, &lookup, RECORD_FRAMES, true)?,
         })
     }
+}
+
+/// A replay writes its own recording (`frames.csv`, `poses.csv`, `rig.yml`) into `out_dir`:
+/// into the folder of the `recording` it plays, it would overwrite the frames it reads and the
+/// rig they were made with.
+///
+/// # Errors
+/// `out_dir` is the recording's folder.
+fn check_not_over(out_dir: &Path, recording: &Path) -> eyre::Result<()> {
+    let folder = if recording.is_dir() {
+        Some(recording)
+    } else {
+        recording.parent()
+    };
+    let same = match (
+        out_dir.canonicalize(),
+        folder.map(|f| {
+            if f.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                f
+            }
+            .canonicalize()
+        }),
+    ) {
+        (Ok(a), Some(Ok(b))) => a == b,
+        _ => false,
+    };
+    if same {
+        bail!(
+            "{NODE}: {OUTPUT_DIR}={} is the folder of the recording being replayed ({RECORDING}={}): \
+             the replay would overwrite the frames it plays; give it another {OUTPUT_DIR}",
+            out_dir.display(),
+            recording.display()
+        );
+    }
+    Ok(())
 }

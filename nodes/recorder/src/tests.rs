@@ -53,6 +53,27 @@ fn config_defaults_and_errors() {
     }
 }
 
+/// A replay told to write into the folder of the recording it plays is refused before it
+/// overwrites it; another folder is fine.
+#[test]
+fn a_replay_does_not_write_over_its_recording() {
+    let dir = std::env::temp_dir().join(format!("trigait-recorder-over-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("frames.csv"), "").unwrap();
+    let recording = dir.join("frames.csv").display().to_string();
+    let out = dir.display().to_string();
+    let err = chain(
+        &Config::from_lookup(lookup(&[("OUTPUT_DIR", &out), ("RECORDING", &recording)]))
+            .unwrap_err(),
+    );
+    assert!(err.contains("overwrite the frames it plays"), "{err}");
+    let other = dir.join("replayed").display().to_string();
+    assert!(
+        Config::from_lookup(lookup(&[("OUTPUT_DIR", &other), ("RECORDING", &recording)])).is_ok()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 fn truth_row(t: i64, x: f64) -> GroundTruth {
     GroundTruth {
         true_stamp_nanos: t,

@@ -72,6 +72,18 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
                         counters.malformed += 1;
                         continue;
                     };
+                    if counters.poses_sent == 0 {
+                        let unwired = unwired_sensors(&config.rig, data.as_array().as_ref());
+                        if !unwired.is_empty() {
+                            warn!(
+                                "rig {:?} has sensors {} that sync reads no frames of: they are \
+                                 not fused (no source wired for them, or a replay of a recording \
+                                 made with more sensors than the graph plays)",
+                                config.rig.name,
+                                unwired.join(", ")
+                            );
+                        }
+                    }
                     if !unknown.is_empty() && !warned_unknown {
                         warned_unknown = true;
                         warn!(
@@ -122,6 +134,20 @@ pub fn on_aligned_set(
         }
     };
     Some(fuse_set(fuser, &set))
+}
+
+/// The sensors of `rig` that the set's `sync` does not read (neither in the set nor missing
+/// from it); none when the set does not decode.
+#[must_use]
+pub fn unwired_sensors(rig: &trigait_rig::Rig, array: &dyn Array) -> Vec<String> {
+    let Ok(set) = AlignedSet::decode(array) else {
+        return Vec::new();
+    };
+    rig.sensors
+        .iter()
+        .map(|s| s.id.clone())
+        .filter(|id| !set.sensors.contains_key(id) && !set.missing.contains(id))
+        .collect()
 }
 
 /// Fuses one decoded aligned set.

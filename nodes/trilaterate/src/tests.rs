@@ -15,7 +15,7 @@ use trigait_sync::{AlignedSet, Policy, SensorView};
 use trigait_trilateration::Method;
 
 use crate::config::Config;
-use crate::{fuse_set, on_aligned_set, pose_fuser};
+use crate::{fuse_set, on_aligned_set, pose_fuser, unwired_sensors};
 
 /// Defaults to fusion on the thesis rig; `ROBUST` wraps it.
 #[test]
@@ -168,6 +168,33 @@ fn resampling_error_widens_the_covariance() {
     );
     assert!(e_on < 0.5 * e_off, "{e_on} vs {e_off}");
     assert!(weighed.covariance.trace() > ignored.covariance.trace());
+}
+
+/// A five-sensor rig under a graph whose `sync` reads three (a five-sensor recording replayed
+/// by the three-source replay graph): the two it never hears of are named.
+#[test]
+fn rig_sensors_without_a_source_are_named() {
+    let rig = Rig::from_spec("ring-5").unwrap();
+    let ids: Vec<String> = rig.sensors.iter().map(|s| s.id.clone()).collect();
+    let mut sensors = BTreeMap::new();
+    sensors.insert(ids[0].clone(), view(Vec::new()));
+    let set = AlignedSet {
+        seq: 0,
+        stamp_nanos: 0,
+        policy: Policy::Slots,
+        sensors,
+        missing: vec![ids[1].clone(), ids[2].clone()],
+        time_uncertainty_nanos: 0,
+    };
+    let array = set.encode().unwrap();
+    assert_eq!(unwired_sensors(&rig, array.as_ref()), ids[3..].to_vec());
+    let thesis = Rig::from_spec("thesis").unwrap();
+    let mut all = set.clone();
+    all.missing = Vec::new();
+    for s in &thesis.sensors {
+        all.sensors.insert(s.id.clone(), view(Vec::new()));
+    }
+    assert!(unwired_sensors(&thesis, all.encode().unwrap().as_ref()).is_empty());
 }
 
 /// A set from a sensor the rig does not know is fused without it, and that sensor is named.

@@ -217,6 +217,8 @@ pub fn read_frames(path: &Path) -> Result<Vec<FrameTiming>> {
     let mut frames: Vec<FrameTiming> = Vec::new();
     // The frame-level cells of the frame being read, to spot a line that contradicts them.
     let mut head = String::new();
+    // Each sensor's last frame number: they only grow within a run.
+    let mut last_seq: std::collections::HashMap<String, u64> = std::collections::HashMap::new();
     read_lines(path, FRAMES_HEADER, |_, text| {
         let c: [&str; 14] = cells(text)?;
         let this_head = c[..9].join(",");
@@ -236,6 +238,16 @@ pub fn read_frames(path: &Path) -> Result<Vec<FrameTiming>> {
             if c[0].is_empty() {
                 return Err("column sensor_id is empty".into());
             }
+            if let Some(&before) = last_seq.get(c[0])
+                && seq <= before
+            {
+                return Err(format!(
+                    "frame {} {seq} after its frame {before}: a sensor's frame numbers only grow \
+                     within a run (two recordings joined into one file, or lines out of order?)",
+                    c[0]
+                ));
+            }
+            last_seq.insert(c[0].to_owned(), seq);
             head = this_head;
             frames.push(FrameTiming {
                 sensor_id: c[0].to_owned(),
@@ -485,5 +497,26 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("missing.csv"), "{err}");
+    }
+
+    /// Two recordings joined into one file: the second's frame numbers start again, which no
+    /// run does, and the reader says so instead of replaying both runs as one.
+    #[test]
+    fn joined_recordings_are_refused() {
+        let dir = temp_dir("joined");
+        let mut text = format!("{FRAMES_HEADER}\n");
+        for run in 0..2 {
+            for seq in 0..3 {
+                push_frame_lines(&mut text, &frame("k1", seq, 2));
+                push_frame_lines(&mut text, &frame("k2", seq + run, 2));
+            }
+        }
+        let err = read_frames(&write(&dir, "joined.csv", &text))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("joined.csv:") && err.contains("frame k1 0 after its frame 2"),
+            "{err}"
+        );
     }
 }
