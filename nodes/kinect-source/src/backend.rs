@@ -269,6 +269,13 @@ fn recording_source(
         pace,
         now,
     );
+    if frames.is_empty() {
+        bail!(
+            "kinect-source: {}={}: the recording holds no frames (only its header)",
+            config::RECORDING,
+            file.display()
+        );
+    }
     if sensor.is_empty() {
         bail!(
             "kinect-source: {}={}: no frames of {}={:?} (the recording has {})",

@@ -374,7 +374,7 @@ impl Config {
             &lookup,
             STOP_AFTER_SECS,
             |s: &f64| *s > 0.0 && *s <= 1e6,
-            "seconds between 0 and 1000000",
+            "seconds more than 0 and at most 1000000 (to run until stopped, leave it out)",
         )?;
         Ok(Config {
             sensor_id,

@@ -513,6 +513,11 @@ fn recording_backend_errors_and_plays() {
         "{}",
         chain(&err)
     );
+    let header_only = dir.join("header.csv");
+    let header = text.lines().next().unwrap();
+    std::fs::write(&header_only, format!("{header}\n")).unwrap();
+    let err = Source::new(&config("k1", &header_only), 0).unwrap_err();
+    assert!(chain(&err).contains("holds no frames"), "{}", chain(&err));
     let c = config("k1", &good);
     let mut source = Source::new(&c, 0).unwrap();
     source.receiver_ready(0);

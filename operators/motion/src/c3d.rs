@@ -424,6 +424,20 @@ fn check_layout(bytes: &mut [u8]) -> Result<(), String> {
     Ok(())
 }
 
+/// c3dio's write error in words: the operating system's reason where there is one (its own
+/// `Display` prints the `Debug` form, `WriteError("a.c3d", Os { code: 13, … })`).
+fn c3dio_write_reason(e: &c3dio::C3dWriteError) -> String {
+    use c3dio::C3dWriteError as E;
+    match e {
+        E::WriteError(_, io)
+        | E::WriteHeaderError(io)
+        | E::WriteParametersError(io)
+        | E::WriteDataError(io) => io.to_string(),
+        E::InvalidFilePath(p) => format!("{} is not a file path c3dio can write", p.display()),
+        other => format!("{other:?}"),
+    }
+}
+
 /// Writes `clip` as a float-format C3D file with c3dio: one point per joint (labelled by its
 /// snake_case name), millimetres, Z up as our world (`X_SCREEN` +X, `Y_SCREEN` +Z),
 /// `POINT:RATE`, `POINT:SCALE` and `POINT:DATA_START` set for readers that need them. A gap is written as (0, 0, 0)
@@ -523,7 +537,7 @@ pub fn write_c3d(path: impl AsRef<Path>, clip: &MotionClip) -> Result<()> {
         let target = PathBuf::from(path);
         catch_unwind(AssertUnwindSafe(|| c3d.write_path(target).map(|_| ())))
             .map_err(|_| write_error("c3dio panicked while writing".to_string()))?
-            .map_err(|e| write_error(format!("{e:?}")))?;
+            .map_err(|e| write_error(c3dio_write_reason(&e)))?;
         let written = header_data_block(path)?;
         if data_start == Some(written) {
             return mark_gaps_invalid(path, clip);

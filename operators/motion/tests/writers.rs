@@ -144,6 +144,13 @@ fn c3d_wrong_extension() {
         write_c3d(temp_path("no-extension"), &clip),
         Err(Error::C3dWrite { .. })
     ));
+    // A folder that is not there: the operating system's words, not c3dio's Debug form.
+    let nowhere = temp_path("missing-folder").join("walk.c3d");
+    let text = write_c3d(&nowhere, &clip).unwrap_err().to_string();
+    assert!(
+        text.contains("walk.c3d") && !text.contains("Os {") && !text.contains("WriteError("),
+        "{text}"
+    );
 }
 
 /// CSV: metres, Z up, parses back to the same positions.

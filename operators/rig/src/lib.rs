@@ -69,7 +69,7 @@ pub enum Error {
     /// Neither a built-in rig name nor an existing file.
     #[error(
         "unknown rig {spec:?}: {}expected `thesis`, `ring-N` (3 ≤ N ≤ 64) or a YAML rig file",
-        if looks_like_a_file(spec) { "no such file; " } else { "" }
+        if looks_like_a_file(spec) { not_found(spec) } else { String::new() }
     )]
     Unknown {
         /// What was asked for.
@@ -90,6 +90,20 @@ fn shortened(message: &str) -> String {
 
 /// Whether a rig spec names a file (a YAML extension or a path separator) rather than a
 /// built-in rig.
+/// Where a relative rig path was looked for: a dataflow's nodes run in the folder of its YAML
+/// file, not where `dora run` was typed.
+fn not_found(spec: &str) -> String {
+    let path = std::path::Path::new(spec);
+    match std::env::current_dir() {
+        Ok(dir) if path.is_relative() => format!(
+            "no such file (looked for {}: a relative path starts from the folder the node runs \
+             in, a dataflow's own folder); ",
+            dir.join(path).display()
+        ),
+        _ => "no such file; ".to_owned(),
+    }
+}
+
 fn looks_like_a_file(spec: &str) -> bool {
     spec.contains(std::path::MAIN_SEPARATOR)
         || spec.contains('/')
@@ -496,6 +510,12 @@ mod tests {
     fn unknown_rigs_and_foreign_files() {
         let e = Rig::from_spec("nonexist.yml").unwrap_err().to_string();
         assert!(e.contains("no such file"), "{e}");
+        // A relative path says where it was looked for.
+        let cwd = std::env::current_dir().unwrap();
+        assert!(
+            e.contains(&cwd.join("nonexist.yml").display().to_string()),
+            "{e}"
+        );
         let e = Rig::from_spec("ring-x").unwrap_err().to_string();
         assert!(!e.contains("no such file"), "{e}");
         let text = "word ".repeat(1000);
