@@ -23,6 +23,54 @@ use std::str::FromStr;
 
 use eyre::bail;
 
+/// The environment variables among `present` that look like a misspelt setting: one edit (a
+/// letter added, dropped, changed or two swapped) away from one of `known` (`METOD` for
+/// `METHOD`), each with the setting it resembles. A misspelt key is otherwise ignored without a
+/// word and the default runs. Only upper-case names are considered, and settings of four
+/// letters or more, so that the shell's own variables are not taken for typos.
+#[must_use]
+pub fn misspelt_settings<'a>(
+    known: &[&'a str],
+    present: impl IntoIterator<Item = String>,
+) -> Vec<(String, &'a str)> {
+    let mut out = Vec::new();
+    for key in present {
+        let shaped = !key.is_empty()
+            && key
+                .bytes()
+                .all(|b| b.is_ascii_uppercase() || b.is_ascii_digit() || b == b'_');
+        if !shaped || known.contains(&key.as_str()) {
+            continue;
+        }
+        if let Some(like) = known
+            .iter()
+            .find(|k| k.len() >= 4 && one_edit_apart(k.as_bytes(), key.as_bytes()))
+        {
+            out.push((key, *like));
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Whether `a` and `b` differ by exactly one insertion, deletion, substitution or swap of
+/// neighbours.
+fn one_edit_apart(a: &[u8], b: &[u8]) -> bool {
+    if a == b || a.len().abs_diff(b.len()) > 1 {
+        return false;
+    }
+    let prefix = a.iter().zip(b).take_while(|(x, y)| x == y).count();
+    let (ra, rb) = (&a[prefix..], &b[prefix..]);
+    match ra.len().cmp(&rb.len()) {
+        std::cmp::Ordering::Equal => {
+            ra[1..] == rb[1..]
+                || (ra.len() >= 2 && ra[0] == rb[1] && ra[1] == rb[0] && ra[2..] == rb[2..])
+        }
+        std::cmp::Ordering::Less => ra == &rb[1..],
+        std::cmp::Ordering::Greater => &ra[1..] == rb,
+    }
+}
+
 /// Checks the input ids the node's YAML gives it (`declared`) against the ones it reads: every
 /// `required` one present, nothing but `required` and `optional` ones. A misspelt input id
 /// otherwise leaves the node waiting for a message that never comes, while the run ends as if
@@ -241,6 +289,25 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use super::*;
+
+    #[test]
+    fn misspelt_settings_are_found() {
+        let known = ["METHOD", "POLICY", "RIG", "SEED", "ROBUST"];
+        let present = [
+            "METOD", "POLICIY", "RGI", "PATH", "HOME", "METHOD", "SEDE", "ROBUS", "robust", "SEEDS",
+        ]
+        .map(str::to_owned);
+        assert_eq!(
+            misspelt_settings(&known, present),
+            [
+                ("METOD".to_owned(), "METHOD"),
+                ("POLICIY".to_owned(), "POLICY"),
+                ("ROBUS".to_owned(), "ROBUST"),
+                ("SEDE".to_owned(), "SEED"),
+                ("SEEDS".to_owned(), "SEED"),
+            ]
+        );
+    }
 
     #[test]
     fn inputs_are_checked_by_name() {

@@ -237,6 +237,47 @@ pub struct Config {
     pub depth: Option<crate::depth::DepthConfig>,
 }
 
+/// Every variable the node reads, to spot a misspelt one.
+const SETTINGS: &[&str] = &[
+    SENSOR_ID,
+    BACKEND,
+    MOTION,
+    WALK_SECS,
+    LANE_M,
+    JOINTS,
+    SEED,
+    FRAME_RATE_HZ,
+    FRAME_PHASE_MILLIS,
+    CLOCK_OFFSET_MILLIS,
+    CLOCK_DRIFT_PPM,
+    CLOCK_JITTER_MICROS,
+    REPLAY_FILE,
+    REPLAY_SPEED,
+    RECORDING,
+    REPLAY_LOOP,
+    CLOCK_STEP_AT_SECS,
+    CLOCK_STEP_MILLIS,
+    STOP_AFTER_FRAMES,
+    STOP_AFTER_SECS,
+    GROUND_TRUTH,
+    trigait_node_config::RIG,
+    crate::depth::DEPTH_RATE_HZ,
+    crate::depth::DEPTH_DIR,
+    crate::depth::DEPTH_LOOP,
+    crate::depth::DEPTH_SCENE,
+    crate::depth::DEPTH_NOISE_SD_MM,
+    crate::depth::DEPTH_QUANTISATION_MM,
+    crate::depth::DEPTH_RING_MM,
+    crate::depth::DEPTH_RING_PERIOD_PX,
+    crate::freenect2::FREENECT2_INDEX,
+    crate::freenect2::FREENECT2_IR,
+    crate::freenect2::FREENECT2_PIPELINE,
+    crate::freenect2::FREENECT2_RESCAN_MILLIS,
+    crate::freenect2::FREENECT2_SERIAL,
+    crate::freenect2::FREENECT2_STALL_MILLIS,
+    crate::freenect2::FREENECT2_STATUS_MILLIS,
+];
+
 const NODE: &str = "kinect-source";
 
 /// `REPLAY_SPEED` of a recording: `realtime`, `fast` or a speed-up factor.
@@ -269,6 +310,12 @@ impl Config {
 
     /// From the process environment.
     pub fn from_env() -> eyre::Result<Self> {
+        for (key, like) in trigait_node_config::misspelt_settings(
+            SETTINGS,
+            std::env::vars_os().filter_map(|(k, _)| k.into_string().ok()),
+        ) {
+            tracing::warn!("{key} is not a setting of {NODE} (left out): did you mean {like}?");
+        }
         Self::from_lookup(|k| std::env::var(k).ok())
     }
 

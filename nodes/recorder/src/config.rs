@@ -43,6 +43,19 @@ pub const RECORDING: &str = "RECORDING";
 /// most this plus the time the writer thread takes.
 pub const DEFAULT_LIVE_UPDATE_SECS: f64 = 0.5;
 
+/// Every variable the node reads, to spot a misspelt one.
+const SETTINGS: &[&str] = &[
+    OUTPUT_DIR,
+    RRD,
+    RERUN_CONNECT,
+    RING_CAPACITY,
+    RECORD_FRAMES,
+    WARMUP_SECS,
+    LIVE_UPDATE_SECS,
+    RECORDING,
+    trigait_node_config::RIG,
+];
+
 const NODE: &str = "recorder";
 
 /// The node's configuration.
@@ -69,6 +82,12 @@ pub struct Config {
 impl Config {
     /// From the process environment.
     pub fn from_env() -> eyre::Result<Self> {
+        for (key, like) in trigait_node_config::misspelt_settings(
+            SETTINGS,
+            std::env::vars_os().filter_map(|(k, _)| k.into_string().ok()),
+        ) {
+            tracing::warn!("{key} is not a setting of {NODE} (left out): did you mean {like}?");
+        }
         Self::from_lookup(|k| std::env::var(k).ok())
     }
 

@@ -40,6 +40,20 @@ pub const TIMESTAMPS: &str = "TIMESTAMPS";
 /// Env var: sensor ids.
 pub const SENSORS: &str = "SENSORS";
 
+/// Every variable the node reads, to spot a misspelt one.
+const SETTINGS: &[&str] = &[
+    POLICY,
+    INTERPOLATION,
+    FUSION_RATE_HZ,
+    SLOT_MILLIS,
+    LATENCY_DEADLINE_MILLIS,
+    FRAME_WAIT_MARGIN_MILLIS,
+    BRIDGE_GAPS,
+    NTP_INTERVAL_MILLIS,
+    TIMESTAMPS,
+    SENSORS,
+];
+
 const NODE: &str = "sync";
 
 /// The node's configuration.
@@ -71,6 +85,12 @@ fn millis(lookup: &impl Fn(&str) -> Option<String>, key: &str, default: f64) -> 
 impl Config {
     /// From the process environment.
     pub fn from_env() -> eyre::Result<Self> {
+        for (key, like) in trigait_node_config::misspelt_settings(
+            SETTINGS,
+            std::env::vars_os().filter_map(|(k, _)| k.into_string().ok()),
+        ) {
+            tracing::warn!("{key} is not a setting of {NODE} (left out): did you mean {like}?");
+        }
         Self::from_lookup(|k| std::env::var(k).ok())
     }
 

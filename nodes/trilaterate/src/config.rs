@@ -18,6 +18,9 @@ pub const ROBUST: &str = "ROBUST";
 /// Env var: resampling weights.
 pub const RESAMPLING_WEIGHTS: &str = "RESAMPLING_WEIGHTS";
 
+/// Every variable the node reads, to spot a misspelt one.
+const SETTINGS: &[&str] = &[METHOD, ROBUST, RESAMPLING_WEIGHTS, trigait_node_config::RIG];
+
 const NODE: &str = "trilaterate";
 
 /// The node's configuration.
@@ -34,6 +37,12 @@ pub struct Config {
 impl Config {
     /// From the process environment.
     pub fn from_env() -> eyre::Result<Self> {
+        for (key, like) in trigait_node_config::misspelt_settings(
+            SETTINGS,
+            std::env::vars_os().filter_map(|(k, _)| k.into_string().ok()),
+        ) {
+            tracing::warn!("{key} is not a setting of {NODE} (left out): did you mean {like}?");
+        }
         Self::from_lookup(|k| std::env::var(k).ok())
     }
 
