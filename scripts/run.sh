@@ -12,8 +12,22 @@ export PATH="$PWD/.venv/bin:$PATH"
 echo "==> building the nodes (release)"
 cargo build --release --workspace --all-targets
 GRAPH="${1:-dataflow.yml}"
-# The recorder's OUTPUT_DIR, relative to the graph's folder (where dora starts the nodes).
-OUT="$(dirname "$GRAPH")/$(sed -n 's/^ *OUTPUT_DIR: *//p' "$GRAPH" | head -1)"
+# The recorder's OUTPUT_DIR, relative to the graph's folder (where dora starts the nodes); a
+# graph without a recorder (depth.yml) has no summary to print.
+OUT_DIR="$(python3 - "$GRAPH" <<'PY'
+import sys, yaml
+graph = yaml.safe_load(open(sys.argv[1]))
+for node in graph.get("nodes", []):
+    if "recorder" in str(node.get("path", "")):
+        print((node.get("env") or {}).get("OUTPUT_DIR", "out"))
+        break
+PY
+)"
+if [ -z "$OUT_DIR" ]; then
+  echo "$GRAPH has no recorder node: run it with \`dora run $GRAPH\` (no summary to print)" >&2
+  exit 2
+fi
+OUT="$(dirname "$GRAPH")/$OUT_DIR"
 OUT="$(realpath --relative-to=. -m "$OUT")"
 rm -f "$OUT/summary.json"
 # The sources end the run after STOP_AFTER (their STOP_AFTER_SECS, inherited from this
@@ -47,7 +61,10 @@ for k, n in s["ntp"].items():
     print(f"  NTP {k:<4}         : offset {n['offset_ms'] or 0:+.3f} ms, drift {n['drift_ppm'] or 0:+.1f} ppm, "
           f"|error| p50 {e['p50']:.3f} ms p99 {e['p99']:.3f} ms, {100 * n['share_below_1ms']:.1f} % < 1 ms")
 l = s["latency_ms"]
-print(f"  latency          : p50 {l['p50']:.2f} ms, p99 {l['p99']:.2f} ms (frame sent -> pose recorded)")
+if l.get("count", 1):
+    print(f"  latency          : p50 {l['p50']:.2f} ms, p99 {l['p99']:.2f} ms (frame sent -> pose recorded)")
+else:
+    print("  latency          : n/a (no pose was timed from its frames' sending: a replay as fast as possible)")
 w = s["warmup"]
 print(f"  warm-up          : {w['poses']} poses in the first {w['secs']:g} s, latency max {w['latency_ms']['max']:.1f} ms (not in the above)")
 d = s.get("wind_down", {})
