@@ -91,8 +91,7 @@ impl Ring {
                     .insert(*joint, e.position);
             }
         }
-        let mut out =
-            String::from("# trigait fused joint trajectories (thesis §6.4.5 text format)\n");
+        let mut out = format!("{}\n", trigait_motion::THESIS_TEXT_HEADER);
         out.push_str("# world frame, metres; columns: t_secs");
         for j in &joints {
             write!(out, " {0}_x {0}_y {0}_z", j.name()).ok();

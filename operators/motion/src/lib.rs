@@ -65,8 +65,8 @@ pub use error::{Error, Result};
 pub use lap::{there_and_back, walkway_laps, walkway_loop};
 pub use markers::{Landmark, MARKER_NAMES, MarkerGaps, MarkerSet};
 pub use sdk::{
-    CutLine, SdkClip, SdkFrame, SdkLog, is_timed, parse_sdk_log, parse_sdk_skeletons, read_sdk_log,
-    read_sdk_skeletons, sdk_clip, swap_sides_walking_away,
+    CutLine, SdkClip, SdkFrame, SdkLog, THESIS_TEXT_HEADER, is_timed, parse_sdk_log,
+    parse_sdk_skeletons, read_sdk_log, read_sdk_skeletons, sdk_clip, swap_sides_walking_away,
 };
 pub use trc::{read_trc, write_trc};
 pub use trigait_skeleton::{Joint, MotionClip};

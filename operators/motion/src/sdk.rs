@@ -95,6 +95,11 @@ pub fn read_sdk_log(path: impl AsRef<Path>) -> Result<SdkLog> {
 }
 
 /// `path`'s text through `parse`, its errors naming the file.
+/// The first line of the recorder's thesis-format text export (`trajectory.txt`, thesis
+/// §6.4.5): the last positions each joint's ring buffer held, not a walk to analyse.
+pub const THESIS_TEXT_HEADER: &str =
+    "# trigait fused joint trajectories (thesis §6.4.5 text format)";
+
 fn read_sdk_text<T>(
     path: &Path,
     parse: impl FnOnce(&str) -> std::result::Result<T, (usize, String)>,
@@ -105,6 +110,16 @@ fn read_sdk_text<T>(
                 path: path.to_owned(),
                 source,
             })?;
+    if text.starts_with(THESIS_TEXT_HEADER) {
+        return Err(Error::SdkSkeleton {
+            path: path.to_owned(),
+            line: 1,
+            reason: "this is trigait's thesis-format export (the last positions of each joint's \
+                     ring buffer), not Kinect SDK text: analyse the trajectory.csv, .trc or .c3d \
+                     the same run wrote beside it"
+                .to_owned(),
+        });
+    }
     parse(&text).map_err(|(line, reason)| Error::SdkSkeleton {
         path: path.to_owned(),
         line,

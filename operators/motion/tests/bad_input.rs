@@ -284,3 +284,25 @@ fn missing_pelvis_markers() {
         Err(Error::MissingMarker { .. })
     ));
 }
+
+/// The recorder's thesis-format text export is named for what it is when given as Kinect SDK
+/// text, with the files of the same run to read instead.
+#[test]
+fn the_thesis_text_export_is_named() {
+    let path = temp_path("trajectory.txt");
+    std::fs::write(
+        &path,
+        format!(
+            "{}\n# world frame, metres; columns: t_secs hip_left_x hip_left_y hip_left_z\n0.0 0.1 0.2 0.9\n",
+            trigait_motion::THESIS_TEXT_HEADER
+        ),
+    )
+    .unwrap();
+    let text = trigait_motion::read_sdk_skeletons(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        text.contains("thesis-format export") && text.contains("trajectory.csv"),
+        "{text}"
+    );
+}
