@@ -30,9 +30,13 @@ fn main() -> eyre::Result<()> {
     let config = Config::from_env()?;
     let (node, events) =
         DoraNode::init_from_env().context("sync: connecting to the dora daemon")?;
+    let wired = sensors_from_inputs(node.node_config().inputs.keys().map(|id| id.as_str()))?;
     let sensors = match &config.sensors {
-        Some(ids) => ids.clone(),
-        None => sensors_from_inputs(node.node_config().inputs.keys().map(|id| id.as_str()))?,
+        Some(ids) => {
+            check_listed_sensors(ids, &wired)?;
+            ids.clone()
+        }
+        None => wired,
     };
     let routes = ntp_routes(
         node.node_config().outputs.iter().map(|id| id.as_str()),
@@ -114,7 +118,9 @@ pub fn ntp_routes<'a>(
         if let Some(sensor) = ports::sensor_of(output, ports::NTP_REQUEST_OUTPUT_PREFIX) {
             if !sensors.iter().any(|s| s == sensor) {
                 bail!(
-                    "sync: output `{output}` names sensor {sensor:?}, which has no `frame_{sensor}` input"
+                    "sync: output `{output}` names sensor {sensor:?}, which is not one of its \
+                     sensors ({})",
+                    sensors.join(", ")
                 );
             }
             routes.insert(sensor.to_owned(), DataId::from(output.to_owned()));
@@ -131,6 +137,31 @@ pub fn ntp_routes<'a>(
         );
     }
     Ok(NtpRoutes::PerSensor(routes))
+}
+
+/// Checks `SENSORS` (`listed`) against the sensors whose `frame_<id>` inputs are wired: each
+/// listed sensor needs its input, and a wired one left out of the list would be read and never
+/// synchronised.
+///
+/// # Errors
+/// Naming the sensor and what it lacks.
+pub fn check_listed_sensors(listed: &[String], wired: &[String]) -> eyre::Result<()> {
+    if let Some(id) = listed.iter().find(|id| !wired.contains(id)) {
+        bail!(
+            "sync: SENSORS lists {id:?}, which has no `{}{id}` input (inputs for: {})",
+            ports::FRAME_INPUT_PREFIX,
+            wired.join(", ")
+        );
+    }
+    if let Some(id) = wired.iter().find(|id| !listed.contains(id)) {
+        bail!(
+            "sync: input `{}{id}` is wired, but SENSORS ({}) leaves {id:?} out: list it, or \
+             remove its inputs",
+            ports::FRAME_INPUT_PREFIX,
+            listed.join(", ")
+        );
+    }
+    Ok(())
 }
 
 /// Sensor ids from the `frame_<id>` input ids, in natural order (`k2` before `k10`); every

@@ -77,6 +77,29 @@ fn config_errors_name_node_key_and_value() {
     );
 }
 
+/// `SENSORS` and the wired `frame_<id>` inputs must name the same sensors; each mismatch is
+/// named as what it is.
+#[test]
+fn listed_sensors_match_the_wiring() {
+    let ids = |v: &[&str]| v.iter().map(|s| (*s).to_owned()).collect::<Vec<_>>();
+    let wired = ids(&["k1", "k2", "k3"]);
+    assert!(crate::check_listed_sensors(&wired, &wired).is_ok());
+    let short = crate::check_listed_sensors(&ids(&["k1", "k2"]), &wired)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        short.contains("`frame_k3` is wired, but SENSORS"),
+        "{short}"
+    );
+    let long = crate::check_listed_sensors(&ids(&["k1", "k2", "k3", "k4"]), &wired)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        long.contains("SENSORS lists \"k4\", which has no `frame_k4` input"),
+        "{long}"
+    );
+}
+
 /// The tick must be a timer of at most 20 ms: at one a second no sensor synchronised, and the
 /// run ended with two sets and no error.
 #[test]

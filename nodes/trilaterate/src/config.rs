@@ -48,6 +48,14 @@ impl Config {
 
     /// From any lookup (tests).
     pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> eyre::Result<Self> {
+        if let Some(raw) = lookup(METHOD)
+            && let Some((method, _)) = raw.trim().split_once("+robust")
+        {
+            eyre::bail!(
+                "{NODE}: {METHOD}={raw:?} is invalid: the estimator is `{method}`; robustness is \
+                 its own setting, {ROBUST}: \"true\""
+            );
+        }
         let method = env_parsed(NODE, &lookup, METHOD, Method::Fusion)?;
         let robust = env_flag(NODE, &lookup, ROBUST, false)?;
         let resampling_weights = env_flag(NODE, &lookup, RESAMPLING_WEIGHTS, true)?;

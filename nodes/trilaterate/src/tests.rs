@@ -34,6 +34,9 @@ fn config_errors_name_node_key_and_value() {
     let text = chain(&Config::from_lookup(lookup(&[("METHOD", "kalman")])).unwrap_err());
     assert!(text.starts_with("trilaterate: METHOD=\"kalman\""), "{text}");
     assert!(text.contains("geometric, linear, nls, fusion"), "{text}");
+    // The name the estimator goes by in the output is not a METHOD: ROBUST is named.
+    let text = chain(&Config::from_lookup(lookup(&[("METHOD", "fusion+robust")])).unwrap_err());
+    assert!(text.contains("ROBUST: \"true\""), "{text}");
     for key in ["ROBUST", "RESAMPLING_WEIGHTS"] {
         let text = chain(&Config::from_lookup(lookup(&[(key, "maybe")])).unwrap_err());
         assert!(
