@@ -45,14 +45,21 @@ impl ViewerSink {
         })
     }
 
-    /// Messages dropped because no viewer took them.
-    #[must_use]
-    pub fn dropped(&self) -> u64 {
-        self.dropped.load(Ordering::Relaxed)
-    }
-
     fn connected(&self) -> bool {
         matches!(self.grpc.status(), GrpcSinkConnectionState::Connected)
+    }
+}
+
+impl Drop for ViewerSink {
+    /// Says how much the live view missed, when the stream closes.
+    fn drop(&mut self) {
+        let dropped = self.dropped.load(Ordering::Relaxed);
+        if dropped > 0 {
+            warn!(
+                "{dropped} rerun messages for the viewer at {} were dropped: no viewer took them",
+                self.url
+            );
+        }
     }
 }
 
