@@ -1,12 +1,18 @@
-//! A live viewer as a rerun sink that never blocks the node logging to it.
+//! A live viewer as a rerun sink that does not hold up the node logging to it when no viewer
+//! is there.
 //!
 //! rerun's own [`GrpcSink`] queues up to 100 messages while it connects and then makes every
 //! further `send` wait until a viewer takes them: a recorder told to stream to a viewer that
-//! is not running stops logging after a second, its `.rrd` (behind the same stream) stops
-//! growing, and its final flush never returns. [`ViewerSink`] hands the gRPC client messages
-//! only while it is connected, plus a few while it first connects (the blueprint and the
-//! first poses, for a viewer that is just starting). Everything else is dropped, counted and
-//! reported once: the live view is a view, and the file sink beside it keeps the whole run.
+//! is not running stopped logging within seconds (a message per entity per batch), its `.rrd`
+//! (behind the same stream) stopped growing, and it never exited. [`ViewerSink`] hands the
+//! gRPC client messages only while it is connected, plus a few while it first connects (the
+//! blueprint and the first poses, for a viewer that is just starting). Everything else is
+//! dropped and counted, with a warning at the first and the count at the end: the live view is
+//! a view, and the file sink beside it keeps the whole run.
+//!
+//! Limits: rerun's client does not reconnect once a connection is lost, so a viewer closed
+//! mid-run sees nothing more of it; and a viewer that is connected but stops reading can still
+//! slow the node, since a connected client's queue (100 messages) waits for it.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
@@ -19,7 +25,7 @@ use tracing::warn;
 /// that a flush still finds room in it.
 pub const MAX_QUEUED_UNCONNECTED: u64 = 64;
 
-/// A sink streaming to the viewer at `url` that drops what it cannot send without waiting.
+/// A sink streaming to the viewer at `url` that drops what no connected viewer takes.
 pub struct ViewerSink {
     grpc: GrpcSink,
     url: String,
@@ -79,8 +85,8 @@ impl LogSink for ViewerSink {
             self.grpc.send(msg);
         } else if self.dropped.fetch_add(1, Ordering::Relaxed) == 0 {
             warn!(
-                "no rerun viewer takes the stream at {}: the live view gets nothing until one \
-                 connects (the .rrd, if one is written, keeps everything)",
+                "no rerun viewer takes the stream at {} (none connected, or it went away): the \
+                 live view misses what follows (the .rrd, if one is written, keeps everything)",
                 self.url
             );
         }
@@ -126,11 +132,16 @@ mod tests {
                     Box::new(viewer) as Box<dyn LogSink>,
                 ])
                 .unwrap();
-            for i in 0..2000 {
+            // Many entities, as a recorder logs: each batch the stream sends is a message per
+            // entity, so the client's queue of 100 fills within a few batches.
+            for i in 0..4000 {
                 rec.set_time_sequence("frame", i);
-                rec.log("point", &rerun::Points3D::new([[i as f32, 0.0, 0.0]]))
-                    .unwrap();
-                if i % 100 == 0 {
+                rec.log(
+                    format!("points/{}", i % 80),
+                    &rerun::Points3D::new([[i as f32, 0.0, 0.0]]),
+                )
+                .unwrap();
+                if i % 200 == 0 {
                     rec.flush_with_timeout(Duration::from_millis(200)).ok();
                 }
             }

@@ -491,11 +491,7 @@ impl Stats {
                 .joints_by_sensors_used
                 .entry(fused.sensors_used.len())
                 .or_default() += 1;
-            if let Some(n) = self.estimators.get_mut(&fused.estimator) {
-                *n += 1;
-            } else {
-                self.estimators.insert(fused.estimator.clone(), 1);
-            }
+            *self.estimators.entry(fused.estimator.clone()).or_default() += 1;
         }
         for reason in pose.skipped.values() {
             *self.skip_reasons.entry(reason.clone()).or_default() += 1;

@@ -66,14 +66,14 @@ pub fn run(config: Config, mut node: DoraNode, mut events: EventStream) -> eyre:
             Event::Input { id, metadata, data } => match id.as_str() {
                 ports::ALIGNED_SET => {
                     stamp.check_params(&metadata.parameters)?;
-                    let Some((pose, unknown)) =
+                    let Some((set, pose, unknown)) =
                         on_aligned_set(&mut fuser, data.as_array().as_ref())
                     else {
                         counters.malformed += 1;
                         continue;
                     };
                     if counters.poses_sent == 0 {
-                        let unwired = unwired_sensors(&config.rig, data.as_array().as_ref());
+                        let unwired = unwired_sensors(&config.rig, &set);
                         if !unwired.is_empty() {
                             warn!(
                                 "rig {:?} has sensors {} that sync reads no frames of: they are \
@@ -120,12 +120,12 @@ pub fn pose_fuser(config: &Config) -> PoseFuser {
     PoseFuser::new(rig, config.params.clone(), config.estimator_name())
 }
 
-/// The `aligned_set` handler: the fused pose of the set and the ids of sensors the rig does
-/// not know; `None` (logged) for a set that does not decode.
+/// The `aligned_set` handler: the set, its fused pose and the ids of sensors the rig does not
+/// know; `None` (logged) for a set that does not decode.
 pub fn on_aligned_set(
     fuser: &mut PoseFuser,
     array: &dyn Array,
-) -> Option<(FusedPose, Vec<String>)> {
+) -> Option<(AlignedSet, FusedPose, Vec<String>)> {
     let set = match AlignedSet::decode(array) {
         Ok(set) => set,
         Err(e) => {
@@ -133,16 +133,14 @@ pub fn on_aligned_set(
             return None;
         }
     };
-    Some(fuse_set(fuser, &set))
+    let (pose, unknown) = fuse_set(fuser, &set);
+    Some((set, pose, unknown))
 }
 
 /// The sensors of `rig` that the set's `sync` does not read (neither in the set nor missing
-/// from it); none when the set does not decode.
+/// from it).
 #[must_use]
-pub fn unwired_sensors(rig: &trigait_rig::Rig, array: &dyn Array) -> Vec<String> {
-    let Ok(set) = AlignedSet::decode(array) else {
-        return Vec::new();
-    };
+pub fn unwired_sensors(rig: &trigait_rig::Rig, set: &AlignedSet) -> Vec<String> {
     rig.sensors
         .iter()
         .map(|s| s.id.clone())

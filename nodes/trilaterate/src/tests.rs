@@ -189,15 +189,14 @@ fn rig_sensors_without_a_source_are_named() {
         missing: vec![ids[1].clone(), ids[2].clone()],
         time_uncertainty_nanos: 0,
     };
-    let array = set.encode().unwrap();
-    assert_eq!(unwired_sensors(&rig, array.as_ref()), ids[3..].to_vec());
+    assert_eq!(unwired_sensors(&rig, &set), ids[3..].to_vec());
     let thesis = Rig::from_spec("thesis").unwrap();
     let mut all = set.clone();
     all.missing = Vec::new();
     for s in &thesis.sensors {
         all.sensors.insert(s.id.clone(), view(Vec::new()));
     }
-    assert!(unwired_sensors(&thesis, all.encode().unwrap().as_ref()).is_empty());
+    assert!(unwired_sensors(&thesis, &all).is_empty());
 }
 
 /// A set from a sensor the rig does not know is fused without it, and that sensor is named.
@@ -291,7 +290,7 @@ fn node_and_eval_fuse_identically() {
                     time_uncertainty_nanos: 0,
                 };
                 let array = set.encode().unwrap();
-                let (pose, unknown) = on_aligned_set(&mut fuser, array.as_ref()).unwrap();
+                let (_, pose, unknown) = on_aligned_set(&mut fuser, array.as_ref()).unwrap();
                 assert!(unknown.is_empty());
                 let eval = trigait_eval::observe_snapshot(&fusion, &sim, &snapshot)
                     .estimate(&config.params);

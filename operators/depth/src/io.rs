@@ -101,8 +101,10 @@ pub fn read_depth_png_as_recorded(path: &Path) -> Result<DepthFrame> {
     DepthFrame::from_mm(depth)
 }
 
-/// Most distinct non-zero values a mask PNG may hold: a binary mask holds one, a body-index or
-/// label image one per person or part. A depth image, the likeliest wrong file, holds thousands.
+/// Most distinct non-zero values a 16-bit mask PNG may hold: a binary mask holds one, a
+/// body-index or label image one per person or part. A depth image, the likeliest wrong file
+/// and 16-bit as a Kinect's are, holds thousands. An 8-bit mask may hold any (a resized or soft
+/// mask's edge).
 pub const MAX_MASK_LABELS: usize = 64;
 
 /// Reads a 512×424 mask PNG (any bit depth or colour type): a pixel is inside when any of its
@@ -110,8 +112,8 @@ pub const MAX_MASK_LABELS: usize = 64;
 ///
 /// # Errors
 /// The file is missing or unreadable, not a PNG, not 512×424, holds more than
-/// [`MAX_MASK_LABELS`] distinct non-zero values (a depth image given as a mask), or the mask is
-/// empty.
+/// [`MAX_MASK_LABELS`] distinct non-zero values in 16 bits (a depth image given as a mask), or
+/// the mask is empty.
 pub fn read_mask_png(path: &Path) -> Result<Mask> {
     let mut reader = open_png(path, png::Transformations::EXPAND)?;
     check_size(path, reader.info())?;
@@ -142,7 +144,7 @@ pub fn read_mask_png(path: &Path) -> Result<Mask> {
             labels.insert(c);
         }
     }
-    if labels.len() > MAX_MASK_LABELS {
+    if bytes_per_sample == 2 && labels.len() > MAX_MASK_LABELS {
         return Err(Error::NotAMask {
             what: path.display().to_string(),
             limit: MAX_MASK_LABELS,

@@ -39,7 +39,8 @@ fn eight_bit_png_is_rejected() {
 }
 
 /// A depth frame given where a mask is expected is refused, by name, rather than read as a
-/// mask of every valid pixel; a label image of a few people or parts is still a mask.
+/// mask of every valid pixel; a label image of a few people or parts, or an 8-bit soft mask, is
+/// still a mask.
 #[test]
 fn a_depth_image_is_not_a_mask() {
     let dir = scratch("depth-as-mask");
@@ -59,6 +60,14 @@ fn a_depth_image_is_not_a_mask() {
     assert_eq!(
         read_mask_png(&labels).unwrap().count(),
         PIXELS - PIXELS.div_ceil(7)
+    );
+    // An 8-bit soft mask (a resized one's edge) holds many values and is still a mask.
+    let soft = dir.join("soft.png");
+    let ramp: Vec<u8> = (0..PIXELS).map(|i| (i % 256) as u8).collect();
+    write_gray8_png(&soft, WIDTH, HEIGHT, &ramp).unwrap();
+    assert_eq!(
+        read_mask_png(&soft).unwrap().count(),
+        PIXELS - PIXELS.div_ceil(256)
     );
 }
 

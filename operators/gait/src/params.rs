@@ -839,6 +839,10 @@ pub(crate) fn analyse_detection(d: Detection, params: &GaitParams) -> Result<Gai
                 s.step_length_m
                     .is_none_or(|l| travel_agrees(l, s.pelvis_travel_m))
             });
+    let strides: Vec<Stride> = strides
+        .into_iter()
+        .map(|s| without_doubtful_steps(s, &inconsistent_steps))
+        .collect();
     if strides.len() < params.min_strides || (strides.is_empty() && steps.is_empty()) {
         let count = |foot| {
             events
@@ -888,6 +892,27 @@ pub(crate) fn analyse_detection(d: Detection, params: &GaitParams) -> Result<Gai
         summary,
         timing,
     })
+}
+
+/// `stride` without the figures it takes from the other foot's heel strike inside it (step
+/// length, step width, double support) when a left-out step begins or ends inside it: that
+/// heel strike may be the one that is not a landing. The stride's own length and times rest
+/// on its own two heel strikes and stay.
+fn without_doubtful_steps(stride: Stride, left_out: &[Step]) -> Stride {
+    let inside = |t: f64| t > stride.start_secs && t < stride.end_secs;
+    if left_out
+        .iter()
+        .any(|s| inside(s.start_secs) || inside(s.end_secs))
+    {
+        Stride {
+            step_length_m: None,
+            step_width_m: None,
+            double_support_pct: None,
+            ..stride
+        }
+    } else {
+        stride
+    }
 }
 
 /// Largest disagreement (m) between a step's or stride's length and how far the pelvis moved
@@ -1297,6 +1322,54 @@ mod tests {
     /// own toe off go; those 3 frames (100 ms) before stay, with a toe off of the other foot
     /// between or without, as does one whose own toe off is in the next segment. At the
     /// walking limit (0.25 s) the 100 ms contacts go too.
+    /// A stride round a left-out step loses the figures it takes from the other foot's heel
+    /// strike inside it, and keeps its own; a stride elsewhere keeps everything.
+    #[test]
+    fn a_stride_round_a_left_out_step_keeps_only_its_own_figures() {
+        let stride = Stride {
+            foot: Foot::Right,
+            segment: 0,
+            start_secs: 10.0,
+            end_secs: 11.1,
+            stride_time_secs: 1.1,
+            stride_length_m: 1.4,
+            speed_mps: 1.4 / 1.1,
+            cadence_steps_per_min: 120.0 / 1.1,
+            step_length_m: Some(0.9),
+            step_width_m: Some(0.1),
+            stance_pct: Some(62.0),
+            swing_pct: Some(38.0),
+            double_support_pct: Some(24.0),
+            pelvis_travel_m: Some(1.38),
+        };
+        let step = |start_secs: f64, end_secs: f64| Step {
+            foot: Foot::Left,
+            segment: 0,
+            start_secs,
+            end_secs,
+            step_time_secs: end_secs - start_secs,
+            cadence_steps_per_min: 60.0 / (end_secs - start_secs),
+            step_length_m: Some(0.58),
+            step_width_m: Some(0.1),
+            pelvis_travel_m: Some(0.21),
+        };
+        let doubted = without_doubtful_steps(stride.clone(), &[step(10.0, 10.26)]);
+        assert_eq!(
+            (
+                doubted.step_length_m,
+                doubted.step_width_m,
+                doubted.double_support_pct
+            ),
+            (None, None, None)
+        );
+        assert_eq!(doubted.stride_length_m, stride.stride_length_m);
+        assert_eq!(doubted.stance_pct, stride.stance_pct);
+        assert_eq!(
+            without_doubtful_steps(stride.clone(), &[step(11.1, 11.4)]),
+            stride
+        );
+    }
+
     #[test]
     fn short_contacts_lose_their_heel_strike() {
         use EventKind::{HeelStrike as Hs, ToeOff as To};

@@ -94,12 +94,13 @@ pub fn read_sdk_log(path: impl AsRef<Path>) -> Result<SdkLog> {
     read_sdk_text(path.as_ref(), parse_sdk_log)
 }
 
-/// `path`'s text through `parse`, its errors naming the file.
 /// The first line of the recorder's thesis-format text export (`trajectory.txt`, thesis
 /// §6.4.5): the last positions each joint's ring buffer held, not a walk to analyse.
 pub const THESIS_TEXT_HEADER: &str =
     "# trigait fused joint trajectories (thesis §6.4.5 text format)";
 
+/// `path`'s text through `parse`, its errors naming the file (the thesis-format export is named
+/// as such).
 fn read_sdk_text<T>(
     path: &Path,
     parse: impl FnOnce(&str) -> std::result::Result<T, (usize, String)>,

@@ -248,8 +248,12 @@ fn parse_trc(path: &Path, text: &str) -> Result<MarkerSet> {
                     format!("time {time} after {before}: times must increase (a repeated row?)"),
                 ));
             }
+            // The last digit written may round a step by up to one unit of it.
+            let resolution = fields[1]
+                .split_once('.')
+                .map_or(1.0, |(_, d)| 10_f64.powi(-(d.len().min(12) as i32)));
             if let Some(before) = last_time
-                && time - before > MAX_TIME_STEP_FRAMES / rate_hz
+                && time - before > MAX_TIME_STEP_FRAMES / rate_hz + resolution
             {
                 return Err(trc_error(
                     path,
@@ -311,8 +315,9 @@ fn parse_trc(path: &Path, text: &str) -> Result<MarkerSet> {
     MarkerSet::new(name, rate_hz, labels, frames)
 }
 
-/// Most frames of `DataRate` between two rows' times before rows count as missing: times
-/// are written rounded (at 120 Hz to three decimals, steps of 8 and 9 ms alternate).
+/// Most frames of `DataRate` between two rows' times before rows count as missing, beyond the
+/// rounding of the time's last digit (at 90 Hz to two decimals, steps of 0.01 and 0.02 s
+/// alternate).
 const MAX_TIME_STEP_FRAMES: f64 = 1.5;
 
 /// Most relative difference between `DataRate` and the rate the Time column advances at over
@@ -530,9 +535,9 @@ Frame#\tTime\tA\t\t\tB\t\t\n\
     fn the_time_column_keeps_the_data_rate() {
         let read = |text: &str| parse_trc(Path::new("x.trc"), text);
         // 120 Hz written to five decimals, and to three (steps of 8 and 9 ms alternate).
-        for decimals in [5, 3] {
-            let set = read(&timed(120.0, 600, 1.0 / 120.0, &[], decimals)).unwrap();
-            assert_eq!(set.frame_count(), 600);
+        for (rate, decimals) in [(120.0, 5), (120.0, 3), (90.0, 2), (1000.0, 3)] {
+            let set = read(&timed(rate, 600, 1.0 / rate, &[], decimals)).unwrap();
+            assert_eq!(set.frame_count(), 600, "{rate} Hz to {decimals} decimals");
         }
         let halved = read(&timed(50.0, 300, 0.01, &[], 5))
             .unwrap_err()

@@ -88,8 +88,6 @@ fn shortened(message: &str) -> String {
     format!("{head}… (cut)")
 }
 
-/// Whether a rig spec names a file (a YAML extension or a path separator) rather than a
-/// built-in rig.
 /// Where a relative rig path was looked for: a dataflow's nodes run in the folder of its YAML
 /// file, not where `dora run` was typed.
 fn not_found(spec: &str) -> String {
@@ -104,6 +102,8 @@ fn not_found(spec: &str) -> String {
     }
 }
 
+/// Whether a rig spec names a file (a YAML extension or a path separator) rather than a
+/// built-in rig.
 fn looks_like_a_file(spec: &str) -> bool {
     spec.contains(std::path::MAIN_SEPARATOR)
         || spec.contains('/')
