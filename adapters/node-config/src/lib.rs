@@ -53,6 +53,15 @@ pub fn misspelt_settings<'a>(
     out
 }
 
+/// Warns of each variable of the process environment that looks like a misspelt setting of
+/// `node` ([`misspelt_settings`] against its `settings`).
+pub fn warn_misspelt_settings(node: &str, settings: &[&str]) {
+    let present = std::env::vars_os().filter_map(|(k, _)| k.into_string().ok());
+    for (key, like) in misspelt_settings(settings, present) {
+        tracing::warn!("{key} is not a setting of {node} (left out): did you mean {like}?");
+    }
+}
+
 /// Whether `a` and `b` differ by exactly one insertion, deletion, substitution or swap of
 /// neighbours.
 fn one_edit_apart(a: &[u8], b: &[u8]) -> bool {

@@ -310,12 +310,7 @@ impl Config {
 
     /// From the process environment.
     pub fn from_env() -> eyre::Result<Self> {
-        for (key, like) in trigait_node_config::misspelt_settings(
-            SETTINGS,
-            std::env::vars_os().filter_map(|(k, _)| k.into_string().ok()),
-        ) {
-            tracing::warn!("{key} is not a setting of {NODE} (left out): did you mean {like}?");
-        }
+        trigait_node_config::warn_misspelt_settings(NODE, SETTINGS);
         Self::from_lookup(|k| std::env::var(k).ok())
     }
 
